@@ -1,0 +1,55 @@
+/* CurrentLoop: the motor's current control loop as a slope-limited first-order lag
+ * (paper Eq. 1, MODEL.md):
+ *
+ *     dI/dt = dIdt_max * sat((I_c - I) / (T_i * dIdt_max))
+ *
+ * plus the PWM ripple on the output, I_out = I + a_h sin(2 pi f_h t + phase_h).
+ * The corner of sat() is an event (mode -1 / 0 / +1), so that the integrator never steps
+ * across the kink: the ramp ends, and the exponential begins, at a located instant.
+ */
+#include <math.h>
+
+#include "framework.h"
+
+static double band(const Instance *inst) { return R(T_i) * R(dIdt_max); }
+
+bool model_check_parameters(const Instance *inst, char *why, size_t size) {
+    (void)inst, (void)why, (void)size;
+    return true; /* the ranges of the variable table say all */
+}
+
+void model_initial_states(Instance *inst) {
+    inst->s.x[S_I_mean] = R(I0);
+    MODE = 0;
+}
+
+double model_max_step(const Instance *inst) { return R(T_i) / 10.0; }
+
+void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
+    (void)t;
+    dx[S_I_mean] = MODE == 0 ? (R(I_c) - x[S_I_mean]) / R(T_i) : MODE * R(dIdt_max);
+}
+
+void model_event_indicators(const Instance *inst, double t, const double *x, double *z) {
+    (void)t;
+    const double error = R(I_c) - x[S_I_mean];
+    z[0] = MODE == 0 ? band(inst) - fabs(error) : MODE * error - band(inst);
+}
+
+bool model_update_mode(Instance *inst, double t, double *x) {
+    (void)t;
+    const double error = R(I_c) - x[S_I_mean];
+    const int mode = fabs(error) <= band(inst) ? 0 : (error > 0.0 ? 1 : -1);
+    const bool changed = mode != MODE;
+    MODE = mode;
+    return changed;
+}
+
+void model_outputs(Instance *inst, double t, const double *x) {
+    double dx[N_STATES];
+    model_derivatives(inst, t, x, dx);
+    R(I_mean) = x[S_I_mean];
+    R(der_I_mean) = dx[S_I_mean];
+    R(I) = x[S_I_mean] + R(a_h) * sin(2.0 * PI * R(f_h) * t + R(phase_h));
+    FLAG(saturated) = MODE != 0;
+}

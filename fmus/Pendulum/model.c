@@ -1,0 +1,90 @@
+/* Pendulum: the pendulum on the cart's pivot (paper Eq. 6-8, MODEL.md), phi from the
+ * upward vertical:
+ *
+ *     J_p alpha = T_A - T_F,    T_A = m_p l (g sin(phi) - a cos(phi))
+ *
+ * J_p = 0 selects the uniform rod of the paper, J_p = (4/3) m_p l^2. T_F is the
+ * three-mode stick-slip friction of friction.h.
+ */
+#include <math.h>
+#include <stdio.h>
+
+#include "framework.h"
+#include "friction.h"
+
+static Friction friction(const Instance *inst) {
+    const Friction f = {R(k_fwp), R(T_Kp), R(T_Sp)};
+    return f;
+}
+
+static double inertia(const Instance *inst) {
+    return R(J_p) > 0.0 ? R(J_p) : 4.0 / 3.0 * R(m_p) * R(l) * R(l);
+}
+
+static double active_torque(const Instance *inst, const double *x) {
+    return R(m_p) * R(l) * (R(g) * sin(x[S_phi]) - R(a) * cos(x[S_phi]));
+}
+
+bool model_check_parameters(const Instance *inst, char *why, size_t size) {
+    const double point_mass = R(m_p) * R(l) * R(l);
+    if (R(J_p) > 0.0 && R(J_p) < point_mass * (1.0 - 1e-12)) {
+        snprintf(why, size,
+                 "J_p = %g kg.m2 is below m_p*l^2 = %g kg.m2, the inertia of the mass m_p concentrated at "
+                 "distance l; a body about its pivot has at least that (set J_p = 0 for a uniform rod)",
+                 R(J_p), point_mass);
+        return false;
+    }
+    return true;
+}
+
+void model_initial_states(Instance *inst) {
+    const Friction f = friction(inst);
+    inst->s.x[S_phi] = R(phi0);
+    inst->s.x[S_w] = R(w0);
+    MODE = friction_initial_mode(&f, R(w0), active_torque(inst, inst->s.x));
+}
+
+double model_max_step(const Instance *inst) {
+    const double J = inertia(inst);
+    const double omega = sqrt(R(m_p) * R(l) * R(g) / J); /* small-angle natural frequency */
+    double h = omega > 0.0 ? 0.05 / omega : INFINITY;
+    if (R(k_fwp) > 0.0) h = fmin(h, 0.2 * J / R(k_fwp));
+    return h;
+}
+
+void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
+    (void)t;
+    const Friction f = friction(inst);
+    const double T_A = active_torque(inst, x);
+    dx[S_phi] = x[S_w];
+    dx[S_w] = MODE == 0 ? 0.0 : (T_A - friction_force(&f, MODE, x[S_w], T_A)) / inertia(inst);
+}
+
+void model_event_indicators(const Instance *inst, double t, const double *x, double *z) {
+    (void)t;
+    const Friction f = friction(inst);
+    z[0] = friction_indicator(&f, MODE, x[S_w], active_torque(inst, x));
+}
+
+bool model_update_mode(Instance *inst, double t, double *x) {
+    (void)t;
+    const Friction f = friction(inst);
+    const double w = x[S_w];
+    const int mode = friction_next_mode(&f, MODE, &x[S_w], active_torque(inst, x));
+    const bool changed = mode != MODE || w != x[S_w];
+    MODE = mode;
+    return changed;
+}
+
+void model_outputs(Instance *inst, double t, const double *x) {
+    const Friction f = friction(inst);
+    double dx[N_STATES];
+    model_derivatives(inst, t, x, dx);
+    const double T_A = active_torque(inst, x);
+    R(phi) = x[S_phi];
+    R(w) = x[S_w];
+    R(alpha) = dx[S_w];
+    R(T_A) = T_A;
+    R(T_F) = friction_force(&f, MODE, x[S_w], T_A);
+    FLAG(stuck) = MODE == 0;
+}

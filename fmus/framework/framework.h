@@ -1,0 +1,141 @@
+/* The shared FMI 2.0 framework of pendfmu's component FMUs.
+ *
+ * One binary serves Co-Simulation and Model Exchange. A component provides only its
+ * equations (the functions declared at the end of this file) on top of:
+ *   - variables.h / variables.c, generated from pendfmu/components.py: value
+ *     references, start values, allowed ranges (the single source of truth);
+ *   - fmi2_api.c: every fmi2 function, the call-order state machine, checks, logging;
+ *   - solver.c: the hybrid integrator behind fmi2DoStep (RK4 on a fixed step that lands
+ *     on communication points, mode changes located by root finding).
+ *
+ * A component is a hybrid system: continuous states x, a discrete mode (an Integer
+ * variable, e.g. the stick-slip mode of a friction joint) and event indicators z that
+ * are >= 0 while the mode is consistent with the state. An indicator going negative is
+ * an event: the mode changes (and states may be reset, e.g. a speed set to exactly 0).
+ */
+#ifndef PENDFMU_FRAMEWORK_H
+#define PENDFMU_FRAMEWORK_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#include "fmi2Functions.h"
+#include "variables.h"
+
+/* Highest order of input derivatives accepted by fmi2SetRealInputDerivatives. */
+#define MAX_INPUT_ORDER 3
+/* Event iterations allowed at one instant before the model is declared inconsistent. */
+#define MAX_EVENT_ITERATIONS 10
+/* Width of the time bracket that locates an event, in seconds. */
+#define EVENT_TIME_TOLERANCE 1e-12
+
+#define PI 3.14159265358979323846
+
+typedef enum {
+    CAUSALITY_PARAMETER,
+    CAUSALITY_INPUT,
+    CAUSALITY_OUTPUT,
+    CAUSALITY_LOCAL
+} Causality;
+
+typedef struct {
+    const char *name;
+    Causality causality;
+    double start;
+    bool has_low, has_high, low_open;
+    double low, high;
+} RealInfo;
+
+typedef struct {
+    const char *name;
+    Causality causality;
+    int start;
+} DiscreteInfo;
+
+/* Defined in the generated variables.c */
+extern const RealInfo REAL_INFO[N_REAL];
+extern const DiscreteInfo INTEGER_INFO[N_INTEGER];
+extern const DiscreteInfo BOOLEAN_INFO[N_BOOLEAN];
+extern const unsigned STATE_VR[N_STATES];
+
+/* The states of the FMI 2.0 call sequence, as bits so that each function can name the
+ * set of states it may be called in. */
+typedef enum {
+    FMU_INSTANTIATED = 1 << 0,
+    FMU_INITIALIZATION = 1 << 1,
+    FMU_STEP_COMPLETE = 1 << 2,   /* Co-Simulation, between steps */
+    FMU_EVENT_MODE = 1 << 3,      /* Model Exchange */
+    FMU_CONTINUOUS_MODE = 1 << 4, /* Model Exchange */
+    FMU_TERMINATED = 1 << 5,
+    FMU_ERROR = 1 << 6
+} FmuPhase;
+
+/* Everything that changes while an instance runs: exactly what an FMU state holds. */
+typedef struct {
+    double time;
+    double r[N_REAL];
+    int i[N_INTEGER];
+    bool b[N_BOOLEAN];
+    double x[N_STATES];
+    /* Co-Simulation input interpolation: u(t) = u_base + sum_k uder[k-1] (t-uder_time)^k/k! */
+    double u_base[N_REAL];
+    double uder[N_REAL][MAX_INPUT_ORDER];
+    double uder_time;
+    bool uder_set;
+    FmuPhase phase;
+    bool outputs_valid;
+    long event_count;
+} DynamicState;
+
+typedef struct {
+    DynamicState s;
+    fmi2Type type;
+    char *name;
+    fmi2CallbackFunctions cb;
+    bool logging_on;
+    bool log_events;
+} Instance;
+
+/* Logging through the host's logger callback (never crashes on a NULL logger). */
+void log_error(const Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
+void log_event(const Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
+
+/* Solver services (solver.c) */
+void solver_inputs_at(Instance *inst, double t);
+bool solver_event_iteration(Instance *inst, double t);
+bool solver_do_step(Instance *inst, double t_end);
+bool solver_initialize(Instance *inst);
+
+/* Short names for variables in the model files: R(T_i) is the value of Real T_i. */
+#define R(name) (inst->s.r[VR_##name])
+#define MODE (inst->s.i[VR_mode - VR_INTEGER_BASE])
+#define FLAG(name) (inst->s.b[VR_##name - VR_BOOLEAN_BASE])
+
+/* ---- What each component implements (fmus/<Name>/model.c) ---- */
+
+/* Cross-parameter checks beyond the ranges of the variable table. On failure writes a
+ * message naming the parameters into `why` and returns false. */
+bool model_check_parameters(const Instance *inst, char *why, size_t size);
+
+/* Set the continuous states from the parameters (x0, v0, ...). */
+void model_initial_states(Instance *inst);
+
+/* A step that the fixed-step integrator must not exceed for accuracy and stability
+ * (INFINITY when the model needs none beyond solver_step). */
+double model_max_step(const Instance *inst);
+
+/* dx/dt at time t for the current mode; inputs are already evaluated at t. */
+void model_derivatives(const Instance *inst, double t, const double *x, double *dx);
+
+/* Event indicators: >= 0 while the mode is consistent with x and the inputs. */
+void model_event_indicators(const Instance *inst, double t, const double *x, double *z);
+
+/* At an event: choose the mode consistent with x and the inputs, resetting states where
+ * the mode demands it (a joint that sticks has speed exactly 0). Returns true when the
+ * mode or a state changed. */
+bool model_update_mode(Instance *inst, double t, double *x);
+
+/* Fill outputs and local variables (r, i, b) from t, x, inputs and the mode. */
+void model_outputs(Instance *inst, double t, const double *x);
+
+#endif

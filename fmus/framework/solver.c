@@ -1,0 +1,181 @@
+/* The hybrid integrator behind fmi2DoStep.
+ *
+ * Classic RK4 on a fixed internal step that divides the communication interval evenly,
+ * so every step lands exactly on the communication point. After each RK4 step the event
+ * indicators are compared with their values at the start of the step; an indicator that
+ * went from >= 0 to < 0 marks a mode change inside the step. Its time is located by
+ * Illinois (modified regula falsi) root finding on g(tau) = z(t + tau, RK4(x, tau)), the
+ * indicator along the RK4 polynomial from the step's start, to a bracket narrower than
+ * EVENT_TIME_TOLERANCE. The step is cut there, the mode updated (event iteration), and
+ * integration continues from the event. Because RK4 over a sub-step is the same formula,
+ * the located time carries the integrator's own O(h^5) accuracy, not an interpolation's.
+ */
+#include <math.h>
+#include <string.h>
+
+#include "framework.h"
+
+static bool is_input(int vr) { return REAL_INFO[vr].causality == CAUSALITY_INPUT; }
+
+/* Evaluate the inputs at time t from the polynomial set by fmi2SetRealInputDerivatives.
+ * Without derivatives for the current step, inputs are held (zero-order hold). */
+void solver_inputs_at(Instance *inst, double t) {
+    DynamicState *s = &inst->s;
+    if (!s->uder_set) return;
+    const double dt = t - s->uder_time;
+    for (int vr = 0; vr < N_REAL; vr++) {
+        if (!is_input(vr)) continue;
+        double value = s->u_base[vr], power = 1.0, factorial = 1.0;
+        for (int k = 1; k <= MAX_INPUT_ORDER; k++) {
+            power *= dt;
+            factorial *= k;
+            value += s->uder[vr][k - 1] * power / factorial;
+        }
+        s->r[vr] = value;
+    }
+}
+
+static void derivatives_at(Instance *inst, double t, const double *x, double *dx) {
+    solver_inputs_at(inst, t);
+    model_derivatives(inst, t, x, dx);
+}
+
+static void indicators_at(Instance *inst, double t, const double *x, double *z) {
+    solver_inputs_at(inst, t);
+    model_event_indicators(inst, t, x, z);
+}
+
+/* One classic Runge-Kutta step of size h from (t, x) into x_out. */
+static void rk4(Instance *inst, double t, const double *x, double h, double *x_out) {
+    double k1[N_STATES], k2[N_STATES], k3[N_STATES], k4[N_STATES], tmp[N_STATES];
+    derivatives_at(inst, t, x, k1);
+    for (int j = 0; j < N_STATES; j++) tmp[j] = x[j] + 0.5 * h * k1[j];
+    derivatives_at(inst, t + 0.5 * h, tmp, k2);
+    for (int j = 0; j < N_STATES; j++) tmp[j] = x[j] + 0.5 * h * k2[j];
+    derivatives_at(inst, t + 0.5 * h, tmp, k3);
+    for (int j = 0; j < N_STATES; j++) tmp[j] = x[j] + h * k3[j];
+    derivatives_at(inst, t + h, tmp, k4);
+    for (int j = 0; j < N_STATES; j++)
+        x_out[j] = x[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
+}
+
+/* Indicator `which` after a sub-step of length tau from (t, x). */
+static double indicator_after(Instance *inst, double t, const double *x, double tau, int which) {
+    double x_tau[N_STATES], z[N_EVENT_INDICATORS];
+    rk4(inst, t, x, tau, x_tau);
+    indicators_at(inst, t + tau, x_tau, z);
+    return z[which];
+}
+
+/* The first time in (0, h] at which indicator `which` turns negative, given
+ * g(0) = g_lo >= 0 and g(h) = g_hi < 0. Returns the right end of the final bracket,
+ * where the indicator is already negative, so the event is never taken too early. */
+static double locate_event(Instance *inst, double t, const double *x, double h, int which,
+                           double g_lo, double g_hi) {
+    double a = 0.0, b = h, fa = g_lo, fb = g_hi;
+    int last_side = 0;
+    for (int iter = 0; iter < 200 && b - a > EVENT_TIME_TOLERANCE; iter++) {
+        double c = (fa - fb) != 0.0 ? a + fa * (b - a) / (fa - fb) : 0.5 * (a + b);
+        if (!(c > a && c < b)) c = 0.5 * (a + b);
+        const double fc = indicator_after(inst, t, x, c, which);
+        if (fc < 0.0) {
+            b = c;
+            fb = fc;
+            if (last_side == -1) fa *= 0.5; /* Illinois: halve the stale end */
+            last_side = -1;
+        } else {
+            a = c;
+            fa = fc;
+            if (last_side == +1) fb *= 0.5;
+            last_side = +1;
+        }
+    }
+    return b;
+}
+
+static bool indicators_consistent(const double *z) {
+    for (int k = 0; k < N_EVENT_INDICATORS; k++)
+        if (z[k] < 0.0) return false;
+    return true;
+}
+
+/* Update the mode at time t until it is consistent with the states and inputs. */
+bool solver_event_iteration(Instance *inst, double t) {
+    double z[N_EVENT_INDICATORS];
+    for (int iter = 0; iter < MAX_EVENT_ITERATIONS; iter++) {
+        solver_inputs_at(inst, t);
+        const int old_mode = MODE;
+        const bool changed = model_update_mode(inst, t, inst->s.x);
+        if (changed && MODE != old_mode) {
+            inst->s.event_count++;
+            inst->s.r[VR_t_mode] = t;
+            log_event(inst, "t = %.12g s: mode %d -> %d", t, old_mode, MODE);
+        }
+        model_event_indicators(inst, t, inst->s.x, z);
+        if (!changed && indicators_consistent(z)) return true;
+    }
+    log_error(inst, "t = %.12g s: no consistent mode after %d event iterations (last mode %d)", t,
+              MAX_EVENT_ITERATIONS, MODE);
+    return false;
+}
+
+bool solver_initialize(Instance *inst) {
+    model_initial_states(inst);
+    inst->s.r[VR_t_mode] = inst->s.time;
+    return solver_event_iteration(inst, inst->s.time);
+}
+
+static bool all_finite(const double *x) {
+    for (int j = 0; j < N_STATES; j++)
+        if (!isfinite(x[j])) return false;
+    return true;
+}
+
+/* Integrate from the current time to t_end. Returns false (after logging) on failure. */
+bool solver_do_step(Instance *inst, double t_end) {
+    DynamicState *s = &inst->s;
+    const double h_max = fmin(R(solver_step), model_max_step(inst));
+    double t = s->time;
+    double z0[N_EVENT_INDICATORS], z1[N_EVENT_INDICATORS], x1[N_STATES];
+
+    /* Inputs may have jumped at the communication point: make the mode consistent. */
+    if (!solver_event_iteration(inst, t)) return false;
+    indicators_at(inst, t, s->x, z0);
+
+    while (t < t_end) {
+        const double remaining = t_end - t;
+        const double n_steps = ceil(remaining / h_max * (1.0 - 1e-12));
+        const double h = n_steps <= 1.0 ? remaining : remaining / n_steps;
+        rk4(inst, t, s->x, h, x1);
+        indicators_at(inst, t + h, x1, z1);
+
+        double tau = h;
+        int which = -1;
+        for (int k = 0; k < N_EVENT_INDICATORS; k++) {
+            if (z0[k] >= 0.0 && z1[k] < 0.0) {
+                const double tau_k = locate_event(inst, t, s->x, h, k, z0[k], z1[k]);
+                if (which < 0 || tau_k < tau) {
+                    tau = tau_k;
+                    which = k;
+                }
+            }
+        }
+        if (which >= 0 && tau < h) rk4(inst, t, s->x, tau, x1);
+        memcpy(s->x, x1, sizeof s->x);
+        t = (tau == remaining) ? t_end : t + tau;
+        s->time = t;
+        if (!all_finite(s->x)) {
+            log_error(inst, "t = %.12g s: the solution is no longer finite (check parameters and inputs)", t);
+            return false;
+        }
+        if (which >= 0) {
+            if (!solver_event_iteration(inst, t)) return false;
+            indicators_at(inst, t, s->x, z0);
+        } else {
+            memcpy(z0, z1, sizeof z0);
+        }
+    }
+    s->time = t_end;
+    solver_inputs_at(inst, t_end);
+    return true;
+}

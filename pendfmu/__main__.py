@@ -1,0 +1,3 @@
+from pendfmu.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,214 @@
+"""The variable tables of the three component FMUs: the single source of truth.
+
+Everything that names a variable is generated from these tables: each FMU's
+``modelDescription.xml``, the C header with its value references, start values and
+allowed ranges, and (in tests) the comparison with the Modelica library. Names, units
+and defaults follow ``MODEL.md``; other tools script against them, so changing a name
+here is a breaking change.
+
+Value references are assigned by position: Real variables first, then Integer, then
+Boolean, numbered consecutively, so every variable of an FMU has a distinct reference.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+# The internal fixed step of the Co-Simulation integrator: every component has it.
+SOLVER_STEP = 1e-4
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMI scalar variable.
+
+    ``low``/``high`` bound a parameter's physical range; the FMU rejects values outside
+    with fmi2Error. ``low_open`` makes the lower bound exclusive (a mass of 0 is not a
+    mass). ``state`` marks a continuous state; ``derivative_of`` names the state this
+    variable is the time derivative of. ``depends_on`` lists, for outputs and
+    derivatives, the states and inputs they depend on directly (FMI ModelStructure);
+    ``None`` means "not declared" (depends on everything).
+    """
+
+    name: str
+    causality: str  # parameter | input | output | local
+    variability: str  # fixed | continuous | discrete
+    start: float | int | bool | None
+    unit: str = ""
+    description: str = ""
+    type: str = "Real"  # Real | Integer | Boolean
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    state: bool = False
+    derivative_of: str | None = None
+    depends_on: tuple[str, ...] | None = None
+
+    def allowed_range(self) -> str:
+        """Human-readable allowed range, as used in error messages."""
+        lo = "-inf" if self.low is None else repr(self.low)
+        hi = "inf" if self.high is None else repr(self.high)
+        return f"{'(' if self.low_open or self.low is None else '['}{lo}, {hi}]"
+
+
+@dataclass(frozen=True)
+class Component:
+    """A component FMU: its identifier, description and variable table."""
+
+    name: str
+    description: str
+    variables: tuple[Variable, ...]
+    event_indicators: int
+    c_source: str = field(default="")
+
+    def __post_init__(self) -> None:
+        names = [v.name for v in self.variables]
+        if len(names) != len(set(names)):
+            raise ValueError(f"{self.name}: duplicate variable names")
+        order = {"Real": 0, "Integer": 1, "Boolean": 2}
+        kinds = [order[v.type] for v in self.variables]
+        if kinds != sorted(kinds):
+            raise ValueError(f"{self.name}: list Real, then Integer, then Boolean variables")
+
+    def value_reference(self, name: str) -> int:
+        for vr, var in enumerate(self.variables):
+            if var.name == name:
+                return vr
+        raise KeyError(f"{self.name} has no variable {name!r}")
+
+    def variable(self, name: str) -> Variable:
+        return self.variables[self.value_reference(name)]
+
+    def of(self, *, causality: str | None = None, type: str | None = None) -> list[Variable]:
+        return [
+            v
+            for v in self.variables
+            if (causality is None or v.causality == causality) and (type is None or v.type == type)
+        ]
+
+    @property
+    def parameters(self) -> dict[str, Variable]:
+        return {v.name: v for v in self.variables if v.causality == "parameter"}
+
+    @property
+    def states(self) -> list[Variable]:
+        return [v for v in self.variables if v.state]
+
+
+def _param(name, start, unit, description, low=None, high=None, low_open=False):
+    return Variable(name, "parameter", "fixed", start, unit, description, low=low, high=high, low_open=low_open)
+
+
+def _solver_step():
+    return _param(
+        "solver_step", SOLVER_STEP, "s",
+        "Upper limit of the internal fixed step of the Co-Simulation integrator (RK4)",
+        low=0.0, high=1.0, low_open=True,
+    )
+
+
+def _mode(description):
+    return Variable("mode", "local", "discrete", None, "", description, type="Integer")
+
+
+def _t_mode():
+    return Variable("t_mode", "local", "discrete", None, "s",
+                    "Time of the last mode change (located to 1e-12 s in Co-Simulation)")
+
+
+CURRENT_LOOP = Component(
+    name="CurrentLoop",
+    description="Current control loop of the DC motor: slope-limited first-order lag plus PWM ripple (paper Eq. 1)",
+    event_indicators=1,
+    variables=(
+        _param("T_i", 0.3e-3, "s", "Equivalent time constant of the current control loop", low=0.0, low_open=True),
+        _param("dIdt_max", 2500.0, "A/s", "Maximum slope of the current", low=0.0, low_open=True),
+        _param("a_h", 0.0, "A", "Amplitude of the PWM ripple harmonic on the output current", low=0.0),
+        _param("f_h", 0.0, "Hz", "Frequency of the PWM ripple harmonic", low=0.0),
+        _param("phase_h", 0.0, "rad", "Phase of the PWM ripple harmonic"),
+        _param("I0", 0.0, "A", "Initial current"),
+        _solver_step(),
+        Variable("I_c", "input", "continuous", 0.0, "A", "Command current"),
+        Variable("I", "output", "continuous", None, "A", "Motor current, ripple included",
+                 depends_on=("I_mean",)),
+        Variable("I_mean", "local", "continuous", None, "A", "Current without ripple (state of the lag)",
+                 state=True),
+        Variable("der(I_mean)", "local", "continuous", None, "A/s", "Slope of the current",
+                 derivative_of="I_mean", depends_on=("I_mean", "I_c")),
+        _t_mode(),
+        _mode("Slope limit: -1 falling at -dIdt_max, 0 linear lag, +1 rising at dIdt_max"),
+        Variable("saturated", "local", "discrete", None, "", "The slope limit is active", type="Boolean"),
+    ),
+)
+
+CART = Component(
+    name="Cart",
+    description="Cart on a lead screw driven by the DC motor, with viscous, Coulomb and stiction friction (paper Eq. 2-5)",
+    event_indicators=1,
+    variables=(
+        _param("m_c", 3.0, "kg", "Effective mass of the cart, motor inertia included", low=0.0, low_open=True),
+        _param("m_p", 0.2, "kg", "Mass of the pendulum (0: pendulum removed)", low=0.0),
+        _param("eta", 0.4, "1", "Efficiency of the lead screw", low=0.0, high=1.0, low_open=True),
+        _param("k_M", 0.06, "N.m/A", "Torque constant of the DC motor", low=0.0, low_open=True),
+        _param("k_D", 628.3, "1/m", "Translation gain of the lead screw (2*pi/pitch)", low=0.0, low_open=True),
+        _param("l", 0.3, "m", "Distance from the pivot to the pendulum's centre of mass", low=0.0, low_open=True),
+        _param("k_fwc", 30.0, "N.s/m", "Viscous friction coefficient of the cart", low=0.0),
+        _param("F_Kc", 8.0, "N", "Coulomb (kinetic) friction force of the cart", low=0.0),
+        _param("F_Sc", 12.0, "N", "Stiction (maximum static friction) force of the cart", low=0.0),
+        _param("x0", 0.0, "m", "Initial position"),
+        _param("v0", 0.0, "m/s", "Initial speed"),
+        _solver_step(),
+        Variable("I", "input", "continuous", 0.0, "A", "Motor current"),
+        Variable("phi", "input", "continuous", math.pi, "rad",
+                 "Pendulum angle from the upward vertical (used when eta > 0.5)"),
+        Variable("w", "input", "continuous", 0.0, "rad/s", "Pendulum angular speed (used when eta > 0.5)"),
+        Variable("alpha", "input", "continuous", 0.0, "rad/s2",
+                 "Pendulum angular acceleration (used when eta > 0.5)"),
+        Variable("x", "output", "continuous", None, "m", "Cart position", state=True, depends_on=("x",)),
+        Variable("v", "output", "continuous", None, "m/s", "Cart speed", state=True, derivative_of="x",
+                 depends_on=("v",)),
+        Variable("a", "output", "continuous", None, "m/s2", "Cart acceleration", derivative_of="v",
+                 depends_on=("v", "I", "phi", "w", "alpha")),
+        Variable("F_A", "output", "continuous", None, "N", "Active force on the cart",
+                 depends_on=("I", "phi", "w", "alpha")),
+        Variable("F_F", "local", "continuous", None, "N", "Friction force on the cart"),
+        _t_mode(),
+        _mode("Friction mode: +1 sliding forward, 0 stuck, -1 sliding backward"),
+        Variable("stuck", "local", "discrete", None, "", "The cart is held by stiction", type="Boolean"),
+    ),
+)
+
+PENDULUM = Component(
+    name="Pendulum",
+    description="Pendulum on the cart's pivot with viscous, Coulomb and stiction friction (paper Eq. 6-8)",
+    event_indicators=1,
+    variables=(
+        _param("m_p", 0.2, "kg", "Mass of the pendulum", low=0.0, low_open=True),
+        _param("l", 0.3, "m", "Distance from the pivot to the centre of mass", low=0.0, low_open=True),
+        _param("J_p", 0.0, "kg.m2",
+               "Moment of inertia about the pivot; 0 means a uniform rod, (4/3)*m_p*l^2", low=0.0),
+        _param("g", 9.81, "m/s2", "Gravitational acceleration", low=0.0),
+        _param("k_fwp", 1e-3, "N.m.s", "Viscous friction coefficient of the pivot", low=0.0),
+        _param("T_Kp", 2e-3, "N.m", "Coulomb (kinetic) friction torque of the pivot", low=0.0),
+        _param("T_Sp", 4e-3, "N.m", "Stiction (maximum static friction) torque of the pivot", low=0.0),
+        _param("phi0", math.pi, "rad", "Initial angle from the upward vertical (hanging: pi)"),
+        _param("w0", 0.0, "rad/s", "Initial angular speed"),
+        _solver_step(),
+        Variable("a", "input", "continuous", 0.0, "m/s2", "Cart acceleration"),
+        Variable("phi", "output", "continuous", None, "rad", "Angle from the upward vertical", state=True,
+                 depends_on=("phi",)),
+        Variable("w", "output", "continuous", None, "rad/s", "Angular speed", state=True,
+                 derivative_of="phi", depends_on=("w",)),
+        Variable("alpha", "output", "continuous", None, "rad/s2", "Angular acceleration", derivative_of="w",
+                 depends_on=("phi", "w", "a")),
+        Variable("T_A", "output", "continuous", None, "N.m", "Active torque on the pendulum",
+                 depends_on=("phi", "a")),
+        Variable("T_F", "local", "continuous", None, "N.m", "Friction torque in the pivot"),
+        _t_mode(),
+        _mode("Friction mode: +1 turning forward, 0 stuck, -1 turning backward"),
+        Variable("stuck", "local", "discrete", None, "", "The pendulum is held by stiction", type="Boolean"),
+    ),
+)
+
+COMPONENTS: dict[str, Component] = {c.name: c for c in (CURRENT_LOOP, CART, PENDULUM)}

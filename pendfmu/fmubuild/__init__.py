@@ -1,0 +1,22 @@
+"""Build the component FMUs from their C sources (``pendfmu build``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pendfmu.components import COMPONENTS
+from pendfmu.fmubuild.compiler import BuildError, build_fmu, compute_guid, fmu_path
+
+__all__ = ["BuildError", "build_all", "build_fmu", "compute_guid", "fmu_path", "ensure_fmu"]
+
+
+def build_all(force: bool = False) -> dict[str, Path]:
+    """Build every component FMU that is missing or stale; return their paths by name."""
+    return {name: build_fmu(component, force=force) for name, component in COMPONENTS.items()}
+
+
+def ensure_fmu(name: str) -> Path:
+    """The path of component `name`'s FMU, built first if missing or stale."""
+    if name not in COMPONENTS:
+        raise KeyError(f"no component {name!r}; known: {', '.join(COMPONENTS)}")
+    return build_fmu(COMPONENTS[name])

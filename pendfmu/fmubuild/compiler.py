@@ -1,0 +1,110 @@
+"""Compile a component FMU from its C sources with the system C compiler and zip it.
+
+The FMU holds modelDescription.xml, binaries/linux64/<Name>.so and sources/ (framework,
+model and generated tables in one flat folder, plus buildDescription.xml), so that an
+importer on another platform can compile it. The GUID is a hash of everything that goes
+into the binary: an FMU is rebuilt exactly when that hash changes.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import uuid
+import zipfile
+from pathlib import Path
+
+import fmpy
+
+from pendfmu import __version__
+from pendfmu.components import Component
+from pendfmu.fmubuild import ctables, description
+
+FMUS_DIR = Path(__file__).resolve().parents[2] / "fmus"
+FRAMEWORK_DIR = FMUS_DIR / "framework"
+FMI_HEADERS = Path(fmpy.__file__).parent / "c-code"
+CFLAGS = ["-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-ffp-contract=off",
+          "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
+PLATFORM = "linux64"
+
+
+class BuildError(RuntimeError):
+    """The C compiler rejected a component's sources."""
+
+
+def _hand_written_sources(component: Component) -> dict[str, str]:
+    """File name in sources/ -> text, for the framework and the model."""
+    files = {p.name: p.read_text() for p in sorted(FRAMEWORK_DIR.iterdir()) if p.suffix in (".c", ".h")}
+    files["model.c"] = (FMUS_DIR / component.name / "model.c").read_text()
+    return files
+
+
+def compute_guid(component: Component) -> str:
+    """A GUID that changes whenever the table, the sources or the compiler flags change."""
+    digest = hashlib.sha256()
+    digest.update(repr(component).encode())
+    digest.update(" ".join(CFLAGS).encode())
+    digest.update(__version__.encode())
+    for name, text in _hand_written_sources(component).items():
+        digest.update(name.encode() + b"\0" + text.encode())
+    return "{" + str(uuid.UUID(digest.hexdigest()[:32])) + "}"
+
+
+def fmu_path(component: Component) -> Path:
+    return FMUS_DIR / f"{component.name}.fmu"
+
+
+def built_guid(path: Path) -> str | None:
+    """The GUID inside an existing FMU, or None if there is none readable."""
+    try:
+        return fmpy.read_model_description(str(path), validate=False).guid
+    except Exception:  # a missing or broken file just means "build it"
+        return None
+
+
+def source_files(component: Component, guid: str) -> dict[str, str]:
+    files = _hand_written_sources(component)
+    files["variables.h"] = ctables.variables_header(component, guid)
+    files["variables.c"] = ctables.variables_source(component)
+    return files
+
+
+def compile_sources(source_dir: Path, output: Path, compiler: str | None = None) -> None:
+    """Compile every .c file of a flat sources folder into the shared library `output`."""
+    cc = compiler or os.environ.get("CC", "gcc")
+    c_files = sorted(str(p) for p in source_dir.glob("*.c"))
+    command = [cc, *CFLAGS, "-shared", "-I", str(source_dir), "-I", str(FMI_HEADERS), *c_files,
+               "-o", str(output), "-lm"]
+    result = subprocess.run(command, capture_output=True, text=True)
+    if result.returncode != 0:
+        raise BuildError(f"{cc} failed for {source_dir}:\n{result.stderr}")
+
+
+def build_fmu(component: Component, force: bool = False) -> Path:
+    """Build fmus/<Name>.fmu unless an FMU of the same sources is already there."""
+    target = fmu_path(component)
+    guid = compute_guid(component)
+    if not force and target.exists() and built_guid(target) == guid:
+        return target
+    files = source_files(component, guid)
+    names = sorted(files)
+    with tempfile.TemporaryDirectory(prefix=f"pendfmu-{component.name}-") as tmp:
+        tmp_dir = Path(tmp)
+        sources = tmp_dir / "sources"
+        sources.mkdir()
+        for name, text in files.items():
+            (sources / name).write_text(text)
+        library = tmp_dir / f"{component.name}.so"
+        compile_sources(sources, library)
+        partial = target.with_suffix(".fmu.part")
+        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as fmu:
+            fmu.writestr("modelDescription.xml", description.model_description(component, guid, names))
+            fmu.write(library, f"binaries/{PLATFORM}/{component.name}.so")
+            for name in names:
+                fmu.write(sources / name, f"sources/{name}")
+            fmu.writestr("sources/buildDescription.xml", description.build_description(component, names))
+        shutil.move(partial, target)  # atomic: a reader never sees half an FMU
+    return target

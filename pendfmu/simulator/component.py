@@ -1,0 +1,189 @@
+"""One component FMU in Co-Simulation through fmpy, addressed by variable names.
+
+This is the thin layer every simulator of pendfmu stands on: it unpacks the FMU once per
+GUID, instantiates it with a logger that keeps the FMU's messages (so a failing call
+raises an error that says *why*, not just "status 3"), checks parameter names against
+the variable table, and steps with inputs held or interpolated by input derivatives.
+"""
+
+from __future__ import annotations
+
+import atexit
+import shutil
+import tempfile
+from collections.abc import Callable, Mapping, Sequence
+from ctypes import byref
+from pathlib import Path
+
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE
+from fmpy.logging import addLoggerProxy
+
+from pendfmu.components import COMPONENTS
+from pendfmu.fmubuild import ensure_fmu
+
+_UNPACKED: dict[str, tuple[Path, object]] = {}
+
+
+class FMUError(RuntimeError):
+    """An FMU call returned fmi2Error; the message carries what the FMU logged."""
+
+
+class ParameterError(ValueError):
+    """A parameter name that the component does not have."""
+
+
+def unpacked_fmu(name: str) -> tuple[Path, object]:
+    """(unzip directory, model description) of component `name`, built and unpacked once."""
+    path = ensure_fmu(name)
+    md = read_model_description(str(path))
+    key = f"{name}:{md.guid}"
+    if key not in _UNPACKED:
+        directory = Path(tempfile.mkdtemp(prefix=f"pendfmu-{name}-"))
+        extract(str(path), str(directory))
+        atexit.register(shutil.rmtree, directory, True)
+        _UNPACKED[key] = (directory, md)
+    return _UNPACKED[key]
+
+
+class ComponentFMU:
+    """A Co-Simulation instance of CurrentLoop, Cart or Pendulum.
+
+    >>> cart = ComponentFMU("Cart", {"m_p": 0.0})
+    >>> cart.step(1e-3, inputs={"I": 2.0})
+    >>> cart.get("x", "v")
+    """
+
+    def __init__(self, name: str, parameters: Mapping[str, float] | None = None, start_time: float = 0.0,
+                 log_events: bool = False):
+        if name not in COMPONENTS:
+            raise ParameterError(f"no component {name!r}; known: {', '.join(COMPONENTS)}")
+        self.name = name
+        self.component = COMPONENTS[name]
+        self.messages: list[str] = []
+        directory, md = unpacked_fmu(name)
+        self.vr = {v.name: v.valueReference for v in md.modelVariables}
+        self.types = {v.name: v.type for v in md.modelVariables}
+        self._callbacks = self._make_callbacks()
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=str(directory), modelIdentifier=name,
+                               instanceName=name)
+        self._call(self.slave.instantiate, callbacks=self._callbacks, loggingOn=log_events)
+        self._call(self.slave.setupExperiment, startTime=start_time)
+        self._call(self.slave.enterInitializationMode)
+        if parameters:
+            self.set_parameters(parameters)
+        self._call(self.slave.exitInitializationMode)
+        self.time = start_time
+
+    # -- plumbing
+
+    def _make_callbacks(self) -> fmi2CallbackFunctions:
+        def logger(env, instance, status, category, message):
+            self.messages.append(message.decode("utf-8", "replace") if message else "")
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        from fmpy import calloc, free
+
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        addLoggerProxy(byref(callbacks))
+        return callbacks
+
+    def _call(self, function: Callable, *args, **kwargs):
+        before = len(self.messages)
+        try:
+            return function(*args, **kwargs)
+        except FMICallException as error:
+            said = "; ".join(self.messages[before:]) or str(error)
+            raise FMUError(f"{self.name}: {said}") from None
+
+    def _refs(self, names: Sequence[str]) -> list[int]:
+        unknown = [n for n in names if n not in self.vr]
+        if unknown:
+            raise ParameterError(f"{self.name} has no variable {', '.join(map(repr, unknown))}; "
+                                 f"known: {', '.join(self.vr)}")
+        return [self.vr[n] for n in names]
+
+    # -- values
+
+    def set_parameters(self, parameters: Mapping[str, float]) -> None:
+        known = self.component.parameters
+        unknown = [n for n in parameters if n not in known]
+        if unknown:
+            raise ParameterError(f"{self.name} has no parameter {', '.join(map(repr, unknown))}; "
+                                 f"known: {', '.join(known)}")
+        self.set(**parameters)
+
+    def set(self, **values: float) -> None:
+        names = list(values)
+        self._call(self.slave.setReal, self._refs(names), [float(values[n]) for n in names])
+
+    def get(self, *names: str) -> list[float]:
+        refs = self._refs(names)
+        out = []
+        for name, ref in zip(names, refs):
+            kind = self.types[name]
+            getter = {"Real": self.slave.getReal, "Integer": self.slave.getInteger,
+                      "Boolean": self.slave.getBoolean}[kind]
+            out.append(self._call(getter, [ref])[0])
+        return out
+
+    # -- time
+
+    def step(self, h: float, inputs: Mapping[str, float] | None = None,
+             derivatives: Mapping[str, Sequence[float]] | None = None) -> None:
+        """Advance by h with inputs set at the current time; `derivatives` maps an input to
+        its 1st, 2nd, ... time derivatives there (the FMU interpolates with them)."""
+        if inputs:
+            self.set(**inputs)
+        if derivatives:
+            refs, orders, values = [], [], []
+            for name, ders in derivatives.items():
+                for order, value in enumerate(ders, start=1):
+                    refs.append(self._refs([name])[0])
+                    orders.append(order)
+                    values.append(float(value))
+            self._call(self.slave.setRealInputDerivatives, refs, orders, values)
+        self._call(self.slave.doStep, currentCommunicationPoint=self.time, communicationStepSize=h)
+        self.time += h
+
+    def run(self, times: np.ndarray, outputs: Sequence[str],
+            inputs: Callable[[float], Mapping[str, float]] | None = None,
+            derivatives: Callable[[float], Mapping[str, Sequence[float]]] | None = None) -> dict[str, np.ndarray]:
+        """Step through `times` (the first is the current time) and record `outputs` at each.
+
+        `inputs(t)` gives the input values at a communication point t, held over the step
+        unless `derivatives(t)` also gives their derivatives there."""
+        times = np.asarray(times, dtype=float)
+        refs = self._refs(outputs)
+        result = np.empty((len(times), len(outputs)))
+        result[0] = self.get(*outputs)
+        for k in range(1, len(times)):
+            t = times[k - 1]
+            self.step(times[k] - t, inputs(t) if inputs else None, derivatives(t) if derivatives else None)
+            result[k] = self.get(*outputs)
+        del refs
+        return {"time": times, **{name: result[:, j] for j, name in enumerate(outputs)}}
+
+    def get_state(self):
+        return self._call(self.slave.getFMUstate)
+
+    def set_state(self, state, time: float) -> None:
+        self._call(self.slave.setFMUstate, state)
+        self.time = time
+
+    def free(self) -> None:
+        if self.slave is not None:
+            self.slave.terminate()
+            self.slave.freeInstance()
+            self.slave = None
+
+    def __enter__(self) -> ComponentFMU:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.free()
