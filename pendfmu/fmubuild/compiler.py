@@ -99,7 +99,7 @@ def build_fmu(component: Component, force: bool = False) -> Path:
             (sources / name).write_text(text)
         library = tmp_dir / f"{component.name}.so"
         compile_sources(sources, library)
-        partial = target.with_suffix(".fmu.part")
+        partial = target.with_name(f".{target.name}.{os.getpid()}.part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as fmu:
             fmu.writestr("modelDescription.xml", description.model_description(component, guid, names))
             fmu.write(library, f"binaries/{PLATFORM}/{component.name}.so")
