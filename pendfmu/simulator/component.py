@@ -178,7 +178,10 @@ class ComponentFMU:
 
     def free(self) -> None:
         if self.slave is not None:
-            self.slave.terminate()
+            try:
+                self.slave.terminate()
+            except FMICallException:
+                pass  # not running (reset, or in error): freeing is allowed from any phase
             self.slave.freeInstance()
             self.slave = None
 
