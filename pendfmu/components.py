@@ -49,7 +49,7 @@ class Variable:
         """Human-readable allowed range, as used in error messages."""
         lo = "-inf" if self.low is None else repr(self.low)
         hi = "inf" if self.high is None else repr(self.high)
-        return f"{'(' if self.low_open or self.low is None else '['}{lo}, {hi}]"
+        return f"{'(' if self.low_open or self.low is None else '['}{lo}, {hi}{')' if self.high is None else ']'}"
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,110 @@
+"""Parameter files: JSON ``{"parameters": {"name": value, ...}}`` with MODEL.md names.
+
+Names are those of the component tables. A name that several components share (m_p and l
+are in Cart and Pendulum) means the same physical quantity and goes to all of them.
+Absent names keep the FMU defaults. An unknown name, a value that is not a finite number,
+or a value outside its physical range is a :class:`ParameterFileError` that names the
+file, the parameter and what is allowed.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from pathlib import Path
+
+from pendfmu.components import COMPONENTS, Variable
+
+# Initial states set through the sidecar's "initial" block (signal name -> parameter).
+INITIAL_STATE_PARAMETERS = {"x": "x0", "v": "v0", "phi": "phi0", "w": "w0", "I": "I0"}
+
+
+class ParameterFileError(ValueError):
+    """Bad parameter input: reported to the user in one line (exit code 2)."""
+
+
+def known_parameters() -> dict[str, Variable]:
+    """Every parameter name of the rig with its table entry (the first component's)."""
+    known: dict[str, Variable] = {}
+    for component in COMPONENTS.values():
+        for name, variable in component.parameters.items():
+            known.setdefault(name, variable)
+    return known
+
+
+def parameter_owners(name: str) -> list[str]:
+    return [c.name for c in COMPONENTS.values() if name in c.parameters]
+
+
+def check_value(name: str, value: object, where: str = "") -> float:
+    """The value as a float, or a ParameterFileError naming the parameter and its range."""
+    prefix = f"{where}: " if where else ""
+    known = known_parameters()
+    if name not in known:
+        raise ParameterFileError(f"{prefix}unknown parameter {name!r}; valid names: {', '.join(sorted(known))}")
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterFileError(f"{prefix}parameter {name} = {value!r} is not a number")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ParameterFileError(f"{prefix}parameter {name} = {value} is not finite")
+    # A shared name is valid when one of its components takes it: m_p = 0 is a cart with
+    # the pendulum removed, although a Pendulum cannot have zero mass (it then must not run).
+    owners = [COMPONENTS[c].parameters[name] for c in parameter_owners(name)]
+    if not any(in_range(variable, value) for variable in owners):
+        ranges = " or ".join(sorted({v.allowed_range() for v in owners}))
+        raise ParameterFileError(f"{prefix}parameter {name} = {value:g} is outside its physical range "
+                                 f"{ranges} [{owners[0].unit}]")
+    return value
+
+
+def in_range(variable: Variable, value: float) -> bool:
+    if variable.low is not None and (value < variable.low or (variable.low_open and value == variable.low)):
+        return False
+    return variable.high is None or value <= variable.high
+
+
+def check_parameters(values: Mapping[str, object], where: str = "") -> dict[str, float]:
+    return {name: check_value(name, value, where) for name, value in values.items()}
+
+
+def read_parameters(path: str | Path) -> dict[str, float]:
+    """The checked parameter values of a parameters file."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as error:
+        raise ParameterFileError(f"{path}: cannot read parameters file ({error.strerror})") from None
+    try:
+        document = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise ParameterFileError(f"{path}: not valid JSON (line {error.lineno}, column {error.colno}: {error.msg})") from None
+    if not isinstance(document, dict) or not isinstance(document.get("parameters"), dict):
+        raise ParameterFileError(f'{path}: expected an object {{"parameters": {{"name": value, ...}}}}')
+    return check_parameters(document["parameters"], str(path))
+
+
+def write_parameters(values: Mapping[str, float], path: str | Path, **extra: object) -> None:
+    document = {"parameters": dict(values), **extra}
+    Path(path).write_text(json.dumps(document, indent=2) + "\n")
+
+
+def per_component(values: Mapping[str, float], components: Mapping[str, str] | None = None) -> dict[str, dict[str, float]]:
+    """Split rig parameters into the values of each component instance.
+
+    `components` maps instance names to component types (default: one instance of each)."""
+    components = components or {name: name for name in COMPONENTS}
+    return {instance: {name: value for name, value in values.items() if name in COMPONENTS[kind].parameters}
+            for instance, kind in components.items()}
+
+
+def with_initial_states(values: Mapping[str, float], initial: Mapping[str, float], where: str = "") -> dict[str, float]:
+    """Override initial-state parameters (x0, v0, phi0, w0, I0) by a sidecar's "initial"."""
+    result = dict(values)
+    for signal, value in initial.items():
+        if signal not in INITIAL_STATE_PARAMETERS:
+            raise ParameterFileError(f"{where}: unknown initial state {signal!r}; valid: "
+                                     f"{', '.join(INITIAL_STATE_PARAMETERS)}")
+        name = INITIAL_STATE_PARAMETERS[signal]
+        result[name] = check_value(name, value, where)
+    return result
