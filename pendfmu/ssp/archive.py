@@ -1,0 +1,100 @@
+"""SSP archives (``.ssp``): a zip with ``SystemStructure.ssd`` at its root and the files
+it references (FMUs and SSV parameter files) under ``resources/``.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+import zipfile
+from pathlib import Path, PurePosixPath
+
+from pendfmu.ssp._xml import Locator, SspError
+from pendfmu.ssp.check import check_system
+from pendfmu.ssp.fmu import check_against_fmu
+from pendfmu.ssp.model import System
+from pendfmu.ssp.ssd import read_ssd, write_ssd
+
+SSD_NAME = "SystemStructure.ssd"  # the default SSD every SSP must have, at the archive root
+
+
+def _member_name(system: System, source: str) -> str:
+    """The archive path of a component source: relative, below the root, as the standard asks."""
+    path = PurePosixPath(source)
+    if path.is_absolute() or ".." in path.parts or ":" in source:
+        raise SspError(f"system {system.name!r}", f"component source {source!r} must be a relative path "
+                                                  "inside the archive, e.g. resources/Cart.fmu")
+    return str(path)
+
+
+def write_ssp(system: System, path: str | Path) -> Path:
+    """Write `system` as an SSP archive holding the SSD, the components' FMUs and the SSV files.
+
+    Every component needs its FMU on disk (``component.fmu``); connectors are checked against
+    it before packing, so an archive never contains an SSD that contradicts its FMUs.
+    """
+    path = Path(path)
+    check_system(system)
+    for component in system.components.values():
+        if component.fmu is None or not Path(component.fmu).is_file():
+            raise SspError(f"system {system.name!r}", f"component {component.name!r} has no FMU file to pack "
+                                                      f"(fmu={component.fmu})")
+        check_against_fmu(component, Locator(f"system {system.name!r}"))
+    with tempfile.TemporaryDirectory(prefix="pendfmu-ssp-") as tmp:
+        root = Path(tmp)
+        files = write_ssd(system, root / SSD_NAME)
+        for component in system.components.values():
+            target = root / _member_name(system, component.source)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(component.fmu, target)
+            files.append(target)
+        partial = path.with_name(path.name + ".part")  # never leave a half-written archive behind
+        with zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+            for file in files:
+                archive.write(file, file.relative_to(root).as_posix())
+        partial.replace(path)
+    return path
+
+
+def _extract(path: Path, target: Path) -> None:
+    """Unzip `path` into `target`, refusing members that would land outside it."""
+    try:
+        archive = zipfile.ZipFile(path)
+    except (OSError, zipfile.BadZipFile) as exc:
+        raise SspError(path, f"is not a readable SSP (zip) archive: {exc}") from exc
+    with archive:
+        for member in archive.namelist():
+            parts = PurePosixPath(member).parts
+            if PurePosixPath(member).is_absolute() or ".." in parts:
+                raise SspError(path, f"archive member {member!r} points outside the archive")
+        if SSD_NAME not in archive.namelist():
+            raise SspError(path, f"has no {SSD_NAME} at its root, which every SSP must have")
+        archive.extractall(target)
+
+
+def read_ssp(path: str | Path, extract_dir: str | Path | None = None) -> System:
+    """Read an SSP archive: unpack it and read its SystemStructure.ssd with its FMUs and SSVs.
+
+    The archive is unpacked into `extract_dir` (a new temporary directory if None, which the
+    caller then owns); the components' ``fmu`` paths point into it, so the returned system
+    can be simulated directly. Errors name the archive and the member, e.g.
+    ``rig.ssp!SystemStructure.ssd:12: <ssd:Connection ...>: ...``.
+    """
+    path = Path(path)
+    target = Path(extract_dir) if extract_dir is not None else Path(tempfile.mkdtemp(prefix="pendfmu-ssp-"))
+    target.mkdir(parents=True, exist_ok=True)
+    _extract(path, target)
+    try:
+        return read_ssd(target / SSD_NAME, require_fmus=True)
+    except SspError as exc:
+        raise exc.in_file(_archive_name(path, target, exc.file)) from exc
+
+
+def _archive_name(archive: Path, extracted: Path, file: str | None) -> str:
+    """Report a file of the unpacked archive as ``archive.ssp!member``."""
+    if file is None:
+        return str(archive)
+    try:
+        return f"{archive}!{Path(file).resolve().relative_to(extracted.resolve()).as_posix()}"
+    except ValueError:
+        return file

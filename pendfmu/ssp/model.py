@@ -1,0 +1,160 @@
+"""The data model of an SSP system: plain dataclasses, free of XML.
+
+They hold what pendfmu needs from an SSD and its parameter files and nothing else, so
+that a round trip through the files gives back an equal object. Names follow the SSP
+1.0 standard (component, connector, connection, parameter set) so that a reader who
+knows the standard recognises them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import ClassVar
+
+# Connector kinds of SSP 1.0 that an FMI 2.0 variable can have (its causality).
+KINDS = ("input", "output", "parameter", "calculatedParameter")
+# Scalar types a connector or parameter value can have (Enumeration and Binary are not used).
+TYPES = ("Real", "Integer", "Boolean", "String")
+
+
+@dataclass(frozen=True)
+class Unit:
+    """A unit as exponents of SI base units, like FMI's BaseUnit and SSP's ssc:Unit.
+
+    SSP requires every unit a connector or parameter names to be defined in the same
+    file, so the definitions travel with the system instead of being looked up.
+    """
+
+    EXPONENTS: ClassVar[tuple[str, ...]] = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
+
+    name: str
+    kg: int = 0
+    m: int = 0
+    s: int = 0
+    A: int = 0
+    K: int = 0
+    mol: int = 0
+    cd: int = 0
+    rad: int = 0
+    factor: float = 1.0
+    offset: float = 0.0
+
+    def dimension(self) -> tuple[int, ...]:
+        """The exponents alone: two units with the same dimension can be converted."""
+        return tuple(getattr(self, e) for e in self.EXPONENTS)
+
+
+@dataclass(frozen=True)
+class Connector:
+    """One variable of a component made visible to the system: name, kind, type and unit."""
+
+    name: str
+    kind: str  # one of KINDS: the FMI 2.0 causality of the variable
+    type: str = "Real"
+    unit: str | None = None
+
+
+@dataclass(frozen=True)
+class FmuComponent:
+    """A component of the system implemented by an FMU.
+
+    ``source`` is the URI written in the SSD, relative to it ("resources/Cart.fmu", as the
+    standard requires inside an SSP); ``fmu`` is where that file is on this machine, if
+    known. ``fmu`` does not take part in comparisons: the same system read from another
+    directory is still the same system.
+    """
+
+    name: str
+    source: str
+    connectors: tuple[Connector, ...]
+    implementation: str = "any"  # any | CoSimulation | ModelExchange
+    fmu: Path | None = field(default=None, compare=False)
+
+    def connector(self, name: str) -> Connector | None:
+        """The connector called `name`, or None."""
+        return next((c for c in self.connectors if c.name == name), None)
+
+
+@dataclass(frozen=True)
+class Connection:
+    """Data flows from the start connector (an output) to the end connector (an input)."""
+
+    start_element: str
+    start_connector: str
+    end_element: str
+    end_connector: str
+
+    @classmethod
+    def between(cls, start: str, end: str) -> Connection:
+        """A connection from "Component.variable" to "Component.variable"."""
+        start_element, _, start_connector = start.partition(".")
+        end_element, _, end_connector = end.partition(".")
+        if not (start_connector and end_connector):
+            raise ValueError(f"connect {start!r} to {end!r}: write both ends as Component.variable")
+        return cls(start_element, start_connector, end_element, end_connector)
+
+    def __str__(self) -> str:
+        return f"{self.start_element}.{self.start_connector} -> {self.end_element}.{self.end_connector}"
+
+
+@dataclass(frozen=True)
+class ParameterValue:
+    """A value given to a parameter (or the start value of an input), with its unit."""
+
+    value: float | int | bool | str
+    unit: str | None = None
+    type: str = "Real"
+
+
+@dataclass
+class ParameterSet:
+    """The content of one SSV file: a named set of values with the units they use."""
+
+    name: str
+    values: dict[str, ParameterValue]
+    units: dict[str, Unit] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """Default experiment: SSP's DefaultExperiment has start and stop time; the
+    communication step size has no place in SSP 1.0 and goes into a pendfmu annotation."""
+
+    start_time: float | None = 0.0
+    stop_time: float | None = None
+    step_size: float | None = None
+
+
+@dataclass
+class System:
+    """A flat system of FMU components, its connections and its parameter values.
+
+    ``parameters`` maps a component name to that component's values (variable name ->
+    value). They form one named parameter set, ``parameter_set``, stored as one SSV file
+    per component. ``units`` defines every unit the connectors and values name.
+    """
+
+    name: str
+    components: dict[str, FmuComponent]
+    connections: list[Connection]
+    parameters: dict[str, dict[str, ParameterValue]] = field(default_factory=dict)
+    units: dict[str, Unit] = field(default_factory=dict)
+    parameter_set: str = "parameters"
+    experiment: Experiment | None = None
+    description: str = ""
+
+    def parameter_source(self, component: str) -> str:
+        """The URI (relative to the SSD) of the SSV file holding `component`'s values."""
+        return f"resources/{component}.ssv"
+
+    def parameter_set_of(self, component: str) -> ParameterSet:
+        """`component`'s share of the parameter set, as it goes into its SSV file."""
+        values = dict(self.parameters.get(component, {}))
+        used = {v.unit for v in values.values() if v.unit is not None}
+        return ParameterSet(self.parameter_set, values, {u: self.units[u] for u in sorted(used) if u in self.units})
+
+    def value(self, component: str, name: str) -> float | int | bool | str | None:
+        """The value given to `component`.`name` in the parameter set, or None."""
+        given = self.parameters.get(component, {}).get(name)
+        return None if given is None else given.value

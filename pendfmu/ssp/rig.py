@@ -1,0 +1,115 @@
+"""The pendulum rig (MODEL.md) as an SSP system of the CurrentLoop, Cart and Pendulum FMUs."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from pendfmu.components import COMPONENTS
+from pendfmu.ssp.fmu import FmuDescription, describe_fmu
+from pendfmu.ssp.model import Connection, Experiment, FmuComponent, ParameterValue, System
+
+RIG_COMPONENTS = ("CurrentLoop", "Cart", "Pendulum")
+
+# One pendulum sits on the cart: its mass and centre-of-mass distance appear in both the
+# Cart (back-drive force) and the Pendulum (its dynamics) and must be the same number.
+SHARED_PARAMETERS = ("m_p", "l")
+
+# A lead screw with eta <= 0.5 is self-locking: the pendulum cannot push the cart back,
+# so the cart needs no pendulum inputs (MODEL.md, A(eta)).
+SELF_LOCKING_ETA = 0.5
+
+DRIVE = (("CurrentLoop.I", "Cart.I"), ("Cart.a", "Pendulum.a"))
+BACK_DRIVE = (("Pendulum.phi", "Cart.phi"), ("Pendulum.w", "Cart.w"), ("Pendulum.alpha", "Cart.alpha"))
+
+
+def rig_connections(eta: float) -> list[Connection]:
+    """Current -> cart -> pendulum, and for a back-drivable screw the pendulum's state back to the cart."""
+    pairs = DRIVE + (BACK_DRIVE if eta > SELF_LOCKING_ETA else ())
+    return [Connection.between(start, end) for start, end in pairs]
+
+
+def _targets(key: str, starts: dict[str, dict[str, ParameterValue]]) -> list[tuple[str, str]]:
+    """The (component, parameter) pairs a user's key sets.
+
+    "T_i" sets every component's T_i; "Cart.k_fwc" sets one. A shared parameter is set in
+    every component that has it, however it is written, so the two can never disagree.
+    """
+    component, dot, name = key.partition(".")
+    if not dot:
+        component, name = None, key
+    elif component not in starts:
+        raise ValueError(f"parameter {key!r}: no rig component {component!r} ({', '.join(starts)})")
+    elif name not in starts[component]:
+        raise ValueError(f"parameter {key!r}: {component} has no parameter {name!r} "
+                         f"({', '.join(starts[component])})")
+    if component is None or name in SHARED_PARAMETERS:
+        targets = [(c, name) for c in starts if name in starts[c]]
+        if not targets:
+            raise ValueError(f"no rig component has a parameter {key!r}")
+        return targets
+    return [(component, name)]
+
+
+def _check_range(component: str, name: str, value: float) -> None:
+    """Reject a value the FMU would reject at instantiation, while the cause is still obvious."""
+    variable = COMPONENTS[component].variable(name)
+    low_ok = variable.low is None or (value > variable.low if variable.low_open else value >= variable.low)
+    high_ok = variable.high is None or value <= variable.high
+    if not (math.isfinite(value) and low_ok and high_ok):
+        raise ValueError(f"{component}.{name} = {value!r} is outside its allowed range {variable.allowed_range()}")
+
+
+def rig_parameters(eta: float, parameters: dict | None,
+                   fmus: dict[str, FmuDescription]) -> dict[str, dict[str, ParameterValue]]:
+    """Every parameter of every component: the FMU's start value unless `parameters` or `eta` set it.
+
+    The full set is written, not just the changes, so an SSP states the whole rig and does
+    not depend on the defaults of whichever FMU build it is later combined with.
+    """
+    starts = {name: dict(d.starts) for name, d in fmus.items()}
+    given: dict[tuple[str, str], tuple[float, str]] = {}
+    requests = [("eta (argument)", "Cart.eta", eta)] + [(k, k, v) for k, v in (parameters or {}).items()]
+    for label, key, value in requests:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"parameter {key!r}: {value!r} is not a number")
+        for target in _targets(key, starts):
+            previous = given.get(target)
+            if previous is not None and previous[0] != float(value):
+                raise ValueError(f"{label} = {value!r} contradicts {previous[1]} = {previous[0]!r} for "
+                                 f"{'.'.join(target)}; give each parameter one value")
+            given[target] = (float(value), label)
+    for (component, name), (value, _) in given.items():
+        _check_range(component, name, value)
+        starts[component][name] = ParameterValue(value, starts[component][name].unit, "Real")
+    return starts
+
+
+def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, *,
+               start_time: float = 0.0, stop_time: float = 1.0, step_size: float = 2e-4,
+               name: str = "PendulumRig", parameter_set: str = "rig") -> System:
+    """The rig as an SSP system of the FMUs in `fmu_dir` (CurrentLoop.fmu, Cart.fmu, Pendulum.fmu).
+
+    `eta` is the screw efficiency: above 0.5 the pendulum's phi, w and alpha feed back into
+    the cart (5 connections), otherwise only current -> cart -> pendulum (2 connections).
+    `parameters` maps "name" (every component that has it) or "Component.name" to a value
+    in the FMU's unit; m_p and l always go to both Cart and Pendulum. The default step size
+    is the sensors' sample period (0.2 ms).
+    """
+    fmu_dir = Path(fmu_dir)
+    fmus = {c: describe_fmu(fmu_dir / f"{c}.fmu") for c in RIG_COMPONENTS}
+    components = {c: FmuComponent(c, f"resources/{c}.fmu", d.connectors, "CoSimulation", d.path)
+                  for c, d in fmus.items()}
+    used = {conn.unit for d in fmus.values() for conn in d.connectors if conn.unit}
+    units = {u: d.units[u] for d in fmus.values() for u in sorted(used) if u in d.units}
+    kind = "back-drivable" if eta > SELF_LOCKING_ETA else "self-locking"
+    return System(
+        name=name,
+        components=components,
+        connections=rig_connections(eta),
+        parameters=rig_parameters(eta, parameters, fmus),
+        units=units,
+        parameter_set=parameter_set,
+        experiment=Experiment(start_time, stop_time, step_size),
+        description=f"Inverted-pendulum rig: current loop, cart on a {kind} lead screw (eta={eta!r}), pendulum",
+    )
