@@ -139,7 +139,7 @@ MAX_BYTES: int = 2 * 1024**3
 before reading them, rather than letting the machine swap."""
 
 SIDECAR_KEYS: tuple[str, ...] = ("experiment", "signals", "parameters", "initial", "comment")
-SIGNAL_INFO_KEYS: tuple[str, ...] = ("resolution", "quantizer", "ignore")
+SIGNAL_INFO_KEYS: tuple[str, ...] = ("resolution", "quantizer", "noise", "ignore")
 
 
 class RecordingError(ValueError):
@@ -152,13 +152,16 @@ class RecordingError(ValueError):
 @dataclass(frozen=True)
 class SignalInfo:
     """How one signal was measured. ``resolution`` is the quantization step Δ in the
-    signal's unit (None: not stated, e.g. an unquantized or unknown sensor)."""
+    signal's unit (None: not stated, e.g. an unquantized or unknown sensor); ``noise`` the
+    standard deviation of the sensor noise before quantization (None: not stated)."""
 
     resolution: float | None = None
     quantizer: str = "round"
+    noise: float | None = None
 
     def __post_init__(self) -> None:
-        problem = _resolution_problem(self.resolution) or _quantizer_problem(self.quantizer)
+        problem = (_resolution_problem(self.resolution) or _quantizer_problem(self.quantizer)
+                   or _noise_problem(self.noise))
         if problem:
             raise RecordingError(f"SignalInfo: {problem}")
 
@@ -394,7 +397,14 @@ def _read_signal_entry(sidecar: _Sidecar, name: str, entry, src: str) -> None:
     problem = _quantizer_problem(quantizer)
     if problem:
         raise RecordingError(f"{src}: {key}.quantizer: {problem}")
-    sidecar.signal_info[name] = SignalInfo(None if resolution is None else float(resolution), quantizer)
+    noise = entry.get("noise")
+    if isinstance(noise, bool) or (noise is not None and not isinstance(noise, (int, float))):
+        raise RecordingError(f"{src}: {key}.noise: must be a number, got {_json_type(noise)}")
+    problem = _noise_problem(None if noise is None else float(noise))
+    if problem:
+        raise RecordingError(f"{src}: {key}.noise: {problem}")
+    sidecar.signal_info[name] = SignalInfo(None if resolution is None else float(resolution), quantizer,
+                                           None if noise is None else float(noise))
 
 
 def _json_object(doc: dict, key: str, src: str) -> dict:
@@ -886,6 +896,14 @@ def _initial_problem(name: str, value: float) -> str | None:
     return None
 
 
+def _noise_problem(noise: float | None) -> str | None:
+    if noise is None:
+        return None
+    if not math.isfinite(noise) or noise < 0:
+        return f"noise {noise!r} must be a finite standard deviation >= 0"
+    return None
+
+
 def _resolution_problem(resolution) -> str | None:
     if resolution is None:
         return None
@@ -951,6 +969,8 @@ def _sidecar_document(recording: Recording) -> dict:
     for name, info in recording.signal_info.items():
         entry: dict = {} if info.resolution is None else {"resolution": info.resolution}
         entry["quantizer"] = info.quantizer
+        if info.noise is not None:
+            entry["noise"] = info.noise
         signals[name] = entry
     return {"experiment": recording.experiment, "signals": signals,
             "parameters": dict(recording.parameters), "initial": dict(recording.initial)}

@@ -36,11 +36,14 @@ class ParameterError(ValueError):
     """A parameter name that the component does not have."""
 
 
-def unpacked_fmu(name: str) -> tuple[Path, object]:
-    """(unzip directory, model description) of component `name`, built and unpacked once."""
-    path = ensure_fmu(name)
+def unpacked_fmu(name: str, fmu: str | Path | None = None) -> tuple[Path, object]:
+    """(unzip directory, model description) of component `name`, unpacked once per GUID.
+
+    Without `fmu` the component is built from source if needed; with it, that file is used
+    (an FMU from an .ssp archive or an exported, re-parameterized one)."""
+    path = Path(fmu) if fmu is not None else ensure_fmu(name)
     md = read_model_description(str(path))
-    key = f"{name}:{md.guid}"
+    key = f"{path.resolve()}:{md.guid}"
     if key not in _UNPACKED:
         directory = Path(tempfile.mkdtemp(prefix=f"pendfmu-{name}-"))
         extract(str(path), str(directory))
@@ -58,18 +61,19 @@ class ComponentFMU:
     """
 
     def __init__(self, name: str, parameters: Mapping[str, float] | None = None, start_time: float = 0.0,
-                 log_events: bool = False):
-        if name not in COMPONENTS:
-            raise ParameterError(f"no component {name!r}; known: {', '.join(COMPONENTS)}")
-        self.name = name
-        self.component = COMPONENTS[name]
+                 log_events: bool = False, fmu: str | Path | None = None, instance: str | None = None):
         self.messages: list[str] = []
-        directory, md = unpacked_fmu(name)
+        directory, md = unpacked_fmu(name, fmu)
+        kind = md.coSimulation.modelIdentifier
+        if kind not in COMPONENTS:
+            raise ParameterError(f"{fmu or name}: {kind!r} is not a pendfmu component ({', '.join(COMPONENTS)})")
+        self.name = instance or name
+        self.component = COMPONENTS[kind]
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.types = {v.name: v.type for v in md.modelVariables}
         self._callbacks = self._make_callbacks()
-        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=str(directory), modelIdentifier=name,
-                               instanceName=name)
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=str(directory), modelIdentifier=kind,
+                               instanceName=self.name)
         self._call(self.slave.instantiate, callbacks=self._callbacks, loggingOn=log_events)
         self._call(self.slave.setupExperiment, startTime=start_time)
         self._call(self.slave.enterInitializationMode)

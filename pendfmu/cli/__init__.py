@@ -1,0 +1,54 @@
+"""The ``pendfmu`` command line: ``main(argv)`` so tests call it in-process.
+
+One module per subcommand, each with ``add_arguments(parser)`` and ``run(args)``.
+Exit codes (a contract other tools script against): 0 success, 2 bad input (a one-line
+message naming the file, column or value; no traceback), 1 internal failure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+from collections.abc import Sequence
+
+from pendfmu.cli import build, demo, rig, simulate
+from pendfmu.errors import BAD_INPUT_ERRORS, UsageError
+
+SUBCOMMANDS = {"build": build, "demo": demo, "simulate": simulate, "rig": rig}
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse exits with 2 on bad usage already; keep its message to one line."""
+
+    def error(self, message: str):  # noqa: D102
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="pendfmu", description="Identify an inverted-pendulum rig with FMI component FMUs.")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal failures")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name, module in SUBCOMMANDS.items():
+        command = sub.add_parser(name, help=module.HELP, description=module.__doc__)
+        module.add_arguments(command)
+        command.set_defaults(run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.run(args) or 0
+    except (UsageError, *BAD_INPUT_ERRORS) as error:
+        print(f"pendfmu {args.command}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"pendfmu {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as error:  # an internal failure: say so, keep the details on demand
+        print(f"pendfmu {args.command}: internal failure: {type(error).__name__}: {error}", file=sys.stderr)
+        if args.debug or os.environ.get("PENDFMU_DEBUG"):
+            traceback.print_exc()
+        return 1

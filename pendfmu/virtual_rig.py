@@ -1,0 +1,194 @@
+"""The virtual rig: the paper's identification experiments, simulated with known truth
+and recorded through models of the rig's sensors.
+
+Each experiment runs only the FMUs the real one involves (the current loop alone, the
+cart without pendulum, the pendulum with the cart still, or the whole rig), samples the
+true signals and passes them through the sensors of MODEL.md:
+
+- motor encoder, 1024 counts per revolution: x in steps of 2 pi / (1024 k_D);
+- 10-bit absolute pendulum encoder: phi in steps of 2 pi / 1024;
+- current: the PWM ripple is the current loop's harmonic (a_h, f_h, phase_h of the
+  truth), read by a 12-bit ADC over +-10 A with Gaussian noise, seeded.
+
+Recordings are written as CSV + sidecar (MODEL.md format) with ``truth.json`` beside.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pendfmu.components import COMPONENTS
+from pendfmu.parameters import write_parameters
+from pendfmu.recording import Recording, SignalInfo, quantize, write_recording
+from pendfmu.simulator.component import ComponentFMU
+from pendfmu.simulator.graph import Connection
+from pendfmu.simulator.master import ExternalInput, Master
+
+ENCODER_COUNTS = 1024
+ADC_RANGE = 10.0  # +-10 A
+ADC_BITS = 12
+ADC_NOISE = 4e-3  # A, standard deviation
+RIPPLE = {"a_h": 0.03, "f_h": 2000.0, "phase_h": 0.5}  # the PWM ripple of the virtual converter
+
+
+def reference_truth() -> dict[str, float]:
+    """MODEL.md's reference rig (the FMU defaults) plus the virtual converter's ripple."""
+    truth = {}
+    for component in COMPONENTS.values():
+        for name, variable in component.parameters.items():
+            if name != "solver_step":
+                truth.setdefault(name, float(variable.start))
+    return {**truth, **RIPPLE}
+
+
+def steps(*levels: tuple[float, float]) -> Callable[[float], float]:
+    """A piecewise-constant command: (time from which it holds, value) pairs."""
+    times = np.array([t for t, _ in levels])
+    values = np.array([v for _, v in levels])
+    return lambda t: float(values[max(int(np.searchsorted(times, t, side="right")) - 1, 0)])
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One recording: what runs, what drives it, what is recorded and how often."""
+
+    name: str
+    kind: str  # current | cart | pendulum | rig
+    duration: float
+    sample: float
+    recorded: tuple[str, ...]
+    drive: Callable[[float], float]  # I_c(t), or the cart acceleration a(t) for kind pendulum
+    truth_overrides: Mapping[str, float] = field(default_factory=dict)  # e.g. the release angle
+    sidecar_parameters: Mapping[str, float] = field(default_factory=dict)
+    known_initial: tuple[str, ...] = ()  # initial states the sidecar states (from the sensors)
+    description: str = ""
+
+
+def standard_experiments() -> list[Experiment]:
+    """The paper's sequence (MODEL.md, 'The identification experiments')."""
+    experiments = [
+        Experiment("current-steps", "current", 0.022, 20e-6, ("I_c", "I"),
+                   steps((0, 0.0), (1e-3, 1.5), (6e-3, 3.0), (11e-3, 0.5), (16e-3, -2.0)),
+                   description="steps of the command current; the current loop alone"),
+        Experiment("cart-startup-2A", "cart", 1.2, 2e-4, ("I_c", "I", "x"),
+                   steps((0, 0.0), (0.05, 2.0), (0.6, 0.0)), sidecar_parameters={"m_p": 0.0},
+                   known_initial=("x", "v"), description="start-up and braking, pendulum removed"),
+        Experiment("cart-startup-3A", "cart", 1.2, 2e-4, ("I_c", "I", "x"),
+                   steps((0, 0.0), (0.05, 3.0), (0.45, 0.0)), sidecar_parameters={"m_p": 0.0},
+                   known_initial=("x", "v"), description="start-up and braking, pendulum removed"),
+        Experiment("cart-ramp", "cart", 2.0, 2e-4, ("I_c", "I", "x"),
+                   lambda t: 0.6 * t, sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"),
+                   description="slow current ramp through breakaway, pendulum removed"),
+        Experiment("pendulum-decay", "pendulum", 30.0, 2e-4, ("phi",), lambda t: 0.0,
+                   truth_overrides={"phi0": math.pi + 0.6, "w0": 0.0}, known_initial=("w",),
+                   description="free damped swing from an unknown release angle, cart still"),
+        Experiment("pendulum-stiction", "pendulum", 12.0, 2e-4, ("a", "phi"),
+                   lambda t: 0.5 * math.sin(2 * math.pi * t / 4.0),
+                   truth_overrides={"phi0": math.pi, "w0": 0.0}, known_initial=("phi", "w"),
+                   description="pendulum at rest, cart rocked slowly (a = 0.5 sin(2 pi t/4) m/s2): "
+                               "every stick-slip starts where the tilt torque exceeds T_Sp"),
+        Experiment("coupled-step", "rig", 3.0, 2e-4, ("I_c", "I", "x", "phi"),
+                   steps((0, 0.0), (0.05, 1.5), (0.4, 0.0)), truth_overrides={"phi0": math.pi},
+                   known_initial=("x", "v", "phi", "w"),
+                   description="current step moves the cart and sets the pendulum swinging"),
+    ]
+    for k, angle in enumerate((-0.3, 0.0, 0.3)):
+        experiments.append(Experiment(
+            f"bangbang-{k}", "rig", 3.0, 2e-4, ("I_c", "I", "x", "phi"),
+            steps((0, 0.0), (0.05, 2.5), (0.35, -2.5), (0.65, 0.0)),
+            truth_overrides={"phi0": math.pi + angle}, known_initial=("x", "v", "phi", "w"),
+            description=f"bang-bang cart move, pendulum released at pi{angle:+.1f} rad"))
+    return experiments
+
+
+@dataclass
+class Sensors:
+    """The rig's sensors, seeded: quantizers and the current ADC's noise."""
+
+    k_D: float
+    rng: np.random.Generator
+
+    def info(self) -> dict[str, SignalInfo]:
+        return {"x": SignalInfo(2 * math.pi / (ENCODER_COUNTS * self.k_D)),
+                "phi": SignalInfo(2 * math.pi / ENCODER_COUNTS),
+                "I": SignalInfo(2 * ADC_RANGE / 2**ADC_BITS, noise=ADC_NOISE)}
+
+    def read(self, name: str, true: np.ndarray) -> np.ndarray:
+        info = self.info().get(name)
+        if info is None:
+            return true  # commanded signals (I_c, a) are known exactly
+        values = true
+        if info.noise:
+            values = values + self.rng.normal(0.0, info.noise, size=values.shape)
+        if name == "I":
+            values = np.clip(values, -ADC_RANGE, ADC_RANGE)
+        return quantize(values, info.resolution)
+
+
+def _of(component: str, values: Mapping[str, float]) -> dict[str, float]:
+    return {k: v for k, v in values.items() if k in COMPONENTS[component].parameters}
+
+
+def simulate_truth(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
+    """The true signals of an experiment at its sample times."""
+    values = {**truth, **experiment.truth_overrides, **experiment.sidecar_parameters}
+    times = np.arange(int(round(experiment.duration / experiment.sample)) + 1) * experiment.sample
+    if experiment.kind == "current":
+        with ComponentFMU("CurrentLoop", _of("CurrentLoop", values)) as loop:
+            result = loop.run(times, ["I"], inputs=lambda t: {"I_c": experiment.drive(t)})
+        return {"time": times, "I_c": np.array([experiment.drive(t) for t in times]), "I": result["I"]}
+    if experiment.kind == "pendulum":
+        with ComponentFMU("Pendulum", _of("Pendulum", values)) as pendulum:
+            result = pendulum.run(times, ["phi", "w"], inputs=lambda t: {"a": experiment.drive(t)},
+                                  derivatives=lambda t: {"a": [_slope(experiment.drive, t)]})
+        return {"time": times, "a": np.array([experiment.drive(t) for t in times]), **result}
+    components = {"CurrentLoop": "CurrentLoop", "Cart": "Cart"}
+    connections = [Connection("CurrentLoop", "I", "Cart", "I")]
+    outputs = ["CurrentLoop.I", "Cart.x", "Cart.v"]
+    if experiment.kind == "rig":
+        components["Pendulum"] = "Pendulum"
+        connections.append(Connection("Cart", "a", "Pendulum", "a"))
+        if values.get("eta", 0.4) > 0.5:
+            connections += [Connection("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha")]
+        outputs += ["Pendulum.phi", "Pendulum.w"]
+    master = Master(components, connections, {name: _of(name, values) for name in components})
+    command = np.array([experiment.drive(t) for t in times])
+    frame = master.run(times, outputs, {"CurrentLoop.I_c": ExternalInput(times, command, "hold")})
+    return {"time": times, "I_c": command, **{c.split(".")[1]: frame[c].to_numpy() for c in outputs}}
+
+
+def _slope(drive: Callable[[float], float], t: float, h: float = 1e-6) -> float:
+    return (drive(t + h) - drive(t - h)) / (2 * h)
+
+
+def record(experiment: Experiment, truth: Mapping[str, float], sensors: Sensors) -> Recording:
+    """Simulate an experiment and read it through the sensors."""
+    true = simulate_truth(experiment, truth)
+    signals = {name: sensors.read(name, true[name]) for name in experiment.recorded}
+    initial = {name: float(sensors.read(name, true[name][:1])[0]) if name in sensors.info() else float(true[name][0])
+               for name in experiment.known_initial}
+    info = {name: i for name, i in sensors.info().items() if name in signals}
+    return Recording(path=Path(f"{experiment.name}.csv"), time=true["time"], signals=signals,
+                     experiment=f"{experiment.name}: {experiment.description}", signal_info=info,
+                     parameters=dict(experiment.sidecar_parameters), initial=initial)
+
+
+def write_experiments(out: str | Path, truth: Mapping[str, float] | None = None, seed: int = 0,
+                      experiments: list[Experiment] | None = None) -> list[Path]:
+    """Write every experiment's recording into `out`, and the truth as truth.json."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    values = {**reference_truth(), **(truth or {})}
+    sensors = Sensors(values["k_D"], np.random.default_rng(seed))
+    paths = []
+    for experiment in experiments or standard_experiments():
+        recording = record(experiment, values, sensors)
+        paths.append(write_recording(recording, out / f"{experiment.name}.csv"))
+    write_parameters(values, out / "truth.json", seed=seed)
+    paths.append(out / "truth.json")
+    return paths
