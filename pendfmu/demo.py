@@ -79,9 +79,43 @@ def _plot_decay(frame: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
+def rig_against_simulation(out: Path) -> list[Path]:
+    """Record the coupled experiments on the virtual rig, simulate them from their
+    recorded command current with the truth parameters, and plot one against the other."""
+    from pendfmu.parameters import read_parameters
+    from pendfmu.recording import read_recording
+    from pendfmu.simulator.rig import simulate_recording
+    from pendfmu.virtual_rig import standard_experiments, write_experiments
+
+    rig_dir = out / "virtual-rig"
+    chosen = [e for e in standard_experiments() if e.name in ("coupled-step", "bangbang-2")]
+    write_experiments(rig_dir, seed=1, experiments=chosen)
+    truth = read_parameters(rig_dir / "truth.json")
+    plots = []
+    for experiment in chosen:
+        recording = read_recording(rig_dir / f"{experiment.name}.csv")
+        simulated = simulate_recording(truth, recording)
+        simulated.to_csv(out / f"{experiment.name}-simulated.csv", index=False, float_format="%.17g")
+        fig, axes = plt.subplots(3, 1, sharex=True, figsize=(8, 7))
+        for axis, name, unit in zip(axes, ("I", "x", "phi"), ("A", "m", "rad")):
+            axis.step(recording.time, recording.signal(name), where="post", lw=0.8, label="recorded (virtual rig)")
+            axis.plot(simulated["time"], simulated[name], lw=0.8, label="simulated (SSP rig, fmpy master)")
+            axis.set_ylabel(f"{name} [{unit}]")
+        axes[0].set_title(f"{experiment.name}: recorded vs simulated with the truth parameters")
+        axes[0].legend(loc="lower right")
+        axes[-1].set_xlabel("time [s]")
+        fig.tight_layout()
+        path = out / f"{experiment.name}.png"
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        plots.append(path)
+    return plots
+
+
 def run_demo(out: str | Path = "out/demo") -> Path:
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
+    rig_against_simulation(out)
     friction = friction_test()
     friction.to_csv(out / "friction_test.csv", index=False)
     _plot_friction(friction, out / "friction_test.png")
