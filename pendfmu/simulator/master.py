@@ -208,8 +208,8 @@ class Master:
                 fmus[c.target].set(**{c.input: value})
             if change <= self.loop_tolerance:
                 return
-        raise CouplingError(f"signals {self._loop_text()} are not consistent at t = {t:.9g} s "
-                            f"after {self.max_iterations} iterations")
+        raise CouplingError(f"algebraic loop {self._loop_text()} did not converge at t = {t:.9g} s "
+                            f"after {self.max_iterations} iterations (last relative change {change:.3g})")
 
     def _loop_text(self) -> str:
         return "; ".join(" -> ".join(loop + loop[:1]) for loop in self.loops) or "(no algebraic loop)"

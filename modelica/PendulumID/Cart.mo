@@ -1,0 +1,53 @@
+within PendulumID;
+model Cart "Cart on a lead screw driven by the DC motor, with viscous, Coulomb and stiction friction (paper Eq. 2-5)"
+  parameter Real m_c(unit = "kg") = 3.0 "Effective mass of the cart, motor inertia included";
+  parameter Real m_p(unit = "kg") = 0.2 "Mass of the pendulum (0: pendulum removed)";
+  parameter Real eta(unit = "1") = 0.4 "Efficiency of the lead screw";
+  parameter Real k_M(unit = "N.m/A") = 0.06 "Torque constant of the DC motor";
+  parameter Real k_D(unit = "1/m") = 628.3 "Translation gain of the lead screw (2*pi/pitch)";
+  parameter Real l(unit = "m") = 0.3 "Distance from the pivot to the pendulum's centre of mass";
+  parameter Real k_fwc(unit = "N.s/m") = 30.0 "Viscous friction coefficient of the cart";
+  parameter Real F_Kc(unit = "N") = 8.0 "Coulomb (kinetic) friction force of the cart";
+  parameter Real F_Sc(unit = "N") = 12.0 "Stiction (maximum static friction) force of the cart";
+  parameter Real x0(unit = "m") = 0.0 "Initial position";
+  parameter Real v0(unit = "m/s") = 0.0 "Initial speed";
+  input Real I(unit = "A", start = 0.0) "Motor current";
+  input Real phi(unit = "rad", start = pi) "Pendulum angle from the upward vertical (used when eta > 0.5)";
+  input Real w(unit = "rad/s", start = 0.0) "Pendulum angular speed (used when eta > 0.5)";
+  input Real alpha(unit = "rad/s2", start = 0.0) "Pendulum angular acceleration (used when eta > 0.5)";
+  output Real x(unit = "m", start = x0, fixed = true) "Cart position";
+  output Real v(unit = "m/s") "Cart speed";
+  output Real a(unit = "m/s2") "Cart acceleration";
+  output Real F_A(unit = "N") "Active force on the cart";
+  Real F_F(unit = "N") "Friction force on the cart";
+  Integer mode "Friction mode: +1 sliding forward, 0 stuck, -1 sliding backward";
+  Boolean stuck "The cart is held by stiction";
+protected
+  final parameter Real A(unit = "1") = if eta > 0.5 then (2*eta - 1)/eta else 0 "Back-drive efficiency A(eta)";
+  StickSlip friction(final m = m_c + m_p, final k_fw = k_fwc, final F_K = F_Kc, final F_S = F_Sc,
+    final v_start = v0) "Stick-slip friction of the screw; owns the speed state";
+equation
+  assert(m_c > 0 and eta > 0 and eta <= 1, "Cart: need m_c > 0 and 0 < eta <= 1");
+  F_A = eta*k_M*k_D*I + A*m_p*l*(w^2*sin(phi) - alpha*cos(phi));
+  friction.F_A = F_A;
+  der(x) = v;
+  v = friction.v;
+  a = friction.a;
+  F_F = friction.F_F;
+  mode = friction.mode;
+  stuck = friction.stuck;
+  annotation (Documentation(info = "<html>
+<p>The cart on the lead screw (paper Eq. 2-5, MODEL.md):</p>
+<pre>
+  (m_c + m_p) a = F_A - F_F,     dx/dt = v,  dv/dt = a
+  F_A = eta k_M k_D I + A(eta) m_p l (w^2 sin(phi) - alpha cos(phi))
+  A(eta) = max(0, (2 eta - 1)/eta)
+</pre>
+<p>F_F is the stick-slip friction of <a href=\"modelica://PendulumID.StickSlip\">StickSlip</a>
+with k_fw = k_fwc, F_K = F_Kc, F_S = F_Sc. A self-locking screw (eta &le; 0.5, A = 0)
+ignores the pendulum inputs <code>phi</code>, <code>w</code>, <code>alpha</code>; with a
+back-drivable one (eta &gt; 0.5) cart and pendulum form an algebraic loop.</p>
+<p>The FMU's parameter <code>solver_step</code> and local <code>t_mode</code> do not
+exist here (see the package documentation).</p>
+</html>"));
+end Cart;

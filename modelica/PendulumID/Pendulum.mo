@@ -1,0 +1,49 @@
+within PendulumID;
+model Pendulum "Pendulum on the cart's pivot with viscous, Coulomb and stiction friction (paper Eq. 6-8)"
+  parameter Real m_p(unit = "kg") = 0.2 "Mass of the pendulum";
+  parameter Real l(unit = "m") = 0.3 "Distance from the pivot to the centre of mass";
+  parameter Real J_p(unit = "kg.m2") = 0.0 "Moment of inertia about the pivot; 0 means a uniform rod, (4/3)*m_p*l^2";
+  parameter Real g(unit = "m/s2") = 9.81 "Gravitational acceleration";
+  parameter Real k_fwp(unit = "N.m.s") = 1e-3 "Viscous friction coefficient of the pivot";
+  parameter Real T_Kp(unit = "N.m") = 2e-3 "Coulomb (kinetic) friction torque of the pivot";
+  parameter Real T_Sp(unit = "N.m") = 4e-3 "Stiction (maximum static friction) torque of the pivot";
+  parameter Real phi0(unit = "rad") = pi "Initial angle from the upward vertical (hanging: pi)";
+  parameter Real w0(unit = "rad/s") = 0.0 "Initial angular speed";
+  input Real a(unit = "m/s2", start = 0.0) "Cart acceleration";
+  output Real phi(unit = "rad", start = phi0, fixed = true) "Angle from the upward vertical";
+  output Real w(unit = "rad/s") "Angular speed";
+  output Real alpha(unit = "rad/s2") "Angular acceleration";
+  output Real T_A(unit = "N.m") "Active torque on the pendulum";
+  Real T_F(unit = "N.m") "Friction torque in the pivot";
+  Integer mode "Friction mode: +1 turning forward, 0 stuck, -1 turning backward";
+  Boolean stuck "The pendulum is held by stiction";
+protected
+  final parameter Real J(unit = "kg.m2") = if J_p > 0 then J_p else 4/3*m_p*l^2 "Inertia used: J_p, or the uniform rod's";
+  StickSlip friction(final m = J, final k_fw = k_fwp, final F_K = T_Kp, final F_S = T_Sp,
+    final v_start = w0) "Stick-slip friction of the pivot; owns the angular speed state";
+equation
+  assert(m_p > 0 and l > 0, "Pendulum: need m_p > 0 and l > 0");
+  assert(J_p <= 0 or J_p >= m_p*l^2*(1 - 1e-12), "Pendulum: J_p is below m_p*l^2, the inertia of the mass m_p "
+    + "concentrated at distance l; a body about its pivot has at least that (set J_p = 0 for a uniform rod)");
+  T_A = m_p*l*(g*sin(phi) - a*cos(phi));
+  friction.F_A = T_A;
+  der(phi) = w;
+  w = friction.v;
+  alpha = friction.a;
+  T_F = friction.F_F;
+  mode = friction.mode;
+  stuck = friction.stuck;
+  annotation (Documentation(info = "<html>
+<p>The pendulum on the cart's pivot (paper Eq. 6-8, MODEL.md), phi measured from the
+upward vertical (hanging at rest: phi = pi):</p>
+<pre>
+  J alpha = T_A - T_F,     dphi/dt = w,  dw/dt = alpha
+  T_A = m_p l (g sin(phi) - a cos(phi))
+  J = J_p, or (4/3) m_p l^2 (a uniform rod of half-length l) when J_p = 0
+</pre>
+<p>T_F is the stick-slip friction of <a href=\"modelica://PendulumID.StickSlip\">StickSlip</a>
+with k_fw = k_fwp, F_K = T_Kp, F_S = T_Sp.</p>
+<p>The FMU's parameter <code>solver_step</code> and local <code>t_mode</code> do not
+exist here (see the package documentation).</p>
+</html>"));
+end Pendulum;
