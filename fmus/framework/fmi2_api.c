@@ -123,7 +123,7 @@ const char *fmi2GetVersion(void) { return fmi2Version; }
 
 static void reset_variables(Instance *inst) {
     memset(&inst->s, 0, sizeof inst->s);
-    for (int k = 0; k < N_REAL; k++) inst->s.r[k] = REAL_INFO[k].start;
+    for (int k = 0; k < N_REAL; k++) inst->s.r[k] = inst->start[k];
     for (int k = 0; k < N_INTEGER; k++) inst->s.i[k] = INTEGER_INFO[k].start;
     for (int k = 0; k < N_BOOLEAN; k++) inst->s.b[k] = BOOLEAN_INFO[k].start != 0;
     inst->s.phase = FMU_INSTANTIATED;
@@ -132,7 +132,6 @@ static void reset_variables(Instance *inst) {
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
                               fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
                               fmi2Boolean visible, fmi2Boolean loggingOn) {
-    (void)fmuResourceLocation;
     (void)visible;
     if (!functions) return NULL;
     Instance probe; /* a stand-in so that errors before allocation still reach the logger */
@@ -143,13 +142,18 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         log_error(&probe, "fmi2Instantiate: missing instance name");
         return NULL;
     }
-    if (!fmuGUID || strcmp(fmuGUID, MODEL_GUID) != 0) {
-        log_error(&probe, "fmi2Instantiate: GUID %s does not match this binary's %s (rebuild the FMU)",
-                  fmuGUID ? fmuGUID : "(null)", MODEL_GUID);
-        return NULL;
-    }
     if (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) {
         log_error(&probe, "fmi2Instantiate: unknown FMU type %d", (int)fmuType);
+        return NULL;
+    }
+    for (int k = 0; k < N_REAL; k++) probe.start[k] = REAL_INFO[k].start;
+    if (!fmuGUID) {
+        log_error(&probe, "fmi2Instantiate: missing GUID");
+        return NULL;
+    }
+    if (strcmp(fmuGUID, MODEL_GUID) != 0 && !start_values_accept(&probe, fmuGUID, fmuResourceLocation)) {
+        log_error(&probe, "fmi2Instantiate: GUID %s does not match this binary's %s (rebuild the FMU)", fmuGUID,
+                  MODEL_GUID);
         return NULL;
     }
     Instance *inst = functions->allocateMemory ? functions->allocateMemory(1, sizeof(Instance))
@@ -168,6 +172,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         return NULL;
     }
     memcpy(name, instanceName, name_size);
+    memcpy(inst->start, probe.start, sizeof inst->start);
     inst->name = name;
     inst->cb = *functions;
     inst->type = fmuType;

@@ -89,6 +89,7 @@ typedef struct {
 
 typedef struct {
     DynamicState s;
+    double start[N_REAL]; /* start values: the table's, or a parameterized FMU's (start.c) */
     fmi2Type type;
     char *name;
     fmi2CallbackFunctions cb;
@@ -99,6 +100,10 @@ typedef struct {
 /* Logging through the host's logger callback (never crashes on a NULL logger). */
 void log_error(const Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
 void log_event(const Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
+
+/* Start values of a parameterized FMU (start.c): accept `guid` if the FMU's resources
+ * carry a start-value file for it, and apply its values to inst->start. */
+bool start_values_accept(Instance *inst, const char *guid, const char *resource_location);
 
 /* Solver services (solver.c) */
 void solver_inputs_at(Instance *inst, double t);
