@@ -112,6 +112,16 @@ class ComponentFMU:
                                  f"known: {', '.join(self.vr)}")
         return [self.vr[n] for n in names]
 
+    def restart(self, parameters: Mapping[str, float], start_time: float = 0.0) -> None:
+        """Reset and initialize again with new parameter values (cheaper than a new instance)."""
+        self._call(self.slave.reset)
+        self._call(self.slave.setupExperiment, startTime=start_time)
+        self._call(self.slave.enterInitializationMode)
+        if parameters:
+            self.set_parameters(parameters)
+        self._call(self.slave.exitInitializationMode)
+        self.time = start_time
+
     # -- values
 
     def set_parameters(self, parameters: Mapping[str, float]) -> None:

@@ -1,0 +1,308 @@
+"""Fit a stage's parameters to recordings: the Python API behind `pendfmu fit`.
+
+    result = pendfmu.fit("cart", ["run1.csv", "run2.csv"], params=known, seed=1)
+    result.write_json("cart.json"); result.write_report("report/")
+
+Stages follow the paper (experiment.py). `fit_all` runs current -> cart -> pendulum on a
+folder of recordings, each stage starting from the previous one's result.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from pendfmu.components import COMPONENTS
+from pendfmu.experiment import STAGES, Experiment, make_experiment
+from pendfmu.optimizer import GlobalOptions, optimize
+from pendfmu.parameters import ParameterFileError, check_parameters
+from pendfmu.recording import Recording, RecordingError, read_recording
+from pendfmu.residuals import FreeParameter, Residuals
+from pendfmu.result import Estimate, ExperimentFit, FitResult, estimate_uncertainty, nrmse
+
+# name: (low, high, logarithmic). Physical ranges wide enough for any lab rig.
+DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
+    "T_i": (1e-5, 1e-1, True), "dIdt_max": (10.0, 1e6, True),
+    "a_h": (0.0, 1.0, False), "f_h": (1.0, 1e5, True), "phase_h": (-math.pi, math.pi, False),
+    "eta": (0.05, 1.0, False), "k_fwc": (1e-2, 1e3, True), "F_Kc": (1e-2, 1e3, True), "F_Sc": (1e-2, 1e3, True),
+    "k_fwp": (1e-7, 1e-1, True), "T_Kp": (1e-7, 1e-1, True), "T_Sp": (1e-7, 1e-1, True),
+    "m_c": (0.05, 100.0, True), "x0": (-1.0, 1.0, False), "v0": (-5.0, 5.0, False),
+    "J_p": (1e-6, 10.0, True), "w0": (-20.0, 20.0, False),
+}
+
+
+def rig_defaults() -> dict[str, float]:
+    """Every rig parameter at its FMU default (the reference rig of MODEL.md)."""
+    values: dict[str, float] = {}
+    for component in COMPONENTS.values():
+        for name, variable in component.parameters.items():
+            if name != "solver_step":
+                values.setdefault(name, float(variable.start))
+    return values
+
+
+class Progress:
+    """A progress bar on stderr when it is a terminal (tqdm), silent otherwise."""
+
+    def __init__(self, stage: str, total: int, enabled: bool | None = None):
+        enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.bar = None
+        if enabled:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, desc=f"fit {stage}", unit="gen", file=sys.stderr, leave=False)
+
+    def __call__(self, message: str) -> None:
+        if self.bar is not None:
+            self.bar.set_postfix_str(message.split(":")[0])
+            if message.startswith("global"):
+                self.bar.update(1)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _recordings(recordings: Sequence[str | Path | Recording]) -> list[Recording]:
+    if not recordings:
+        raise RecordingError("no recordings given")
+    return [r if isinstance(r, Recording) else read_recording(r) for r in recordings]
+
+
+def _free_parameters(stage: str, experiments: list[Experiment], free: Sequence[str] | None,
+                     fix: Sequence[str], bounds: Mapping[str, tuple[float, float]]) -> list[FreeParameter]:
+    spec = STAGES[stage]
+    component = COMPONENTS[spec.component]
+    names = list(spec.default_free) + [n for n in (free or []) if n not in spec.default_free]
+    for name in list(names) + list(fix):
+        if name not in component.parameters and name not in {"phi0"}:
+            raise ParameterFileError(f"stage {stage} fits parameters of {spec.component}; {name!r} is not one "
+                                     f"(valid: {', '.join(n for n in component.parameters if n != 'solver_step')})")
+    result = []
+    for name in names:
+        if name in fix:
+            continue
+        low, high, log = DEFAULT_BOUNDS.get(name, (None, None, False))
+        if name in bounds:
+            low, high = bounds[name]
+            log = log and low > 0
+        if low is None or not high > low:
+            raise ParameterFileError(f"parameter {name}: give bounds as --bounds {name}=LOW:HIGH (LOW < HIGH)")
+        result.append(FreeParameter(name, float(low), float(high), log))
+    for experiment in experiments:
+        for name, (_guess, low, high) in experiment.estimated.items():
+            if name not in fix:
+                result.append(FreeParameter(name, low, high, False, experiment.name))
+    return result
+
+
+def _start(free: list[FreeParameter], values: Mapping[str, float], experiments: list[Experiment]) -> np.ndarray:
+    guesses = {e.name: e.estimated for e in experiments}
+    u = []
+    for p in free:
+        guess = guesses[p.experiment][p.name][0] if p.experiment else values.get(p.name, p.low)
+        u.append(min(max(p.unit(guess) if (not p.log or guess > 0) else 0.0, 0.0), 1.0))
+    return np.array(u)
+
+
+def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mapping[str, float] | None = None,
+        free: Sequence[str] | None = None, fix: Sequence[str] = (),
+        bounds: Mapping[str, tuple[float, float]] | None = None, seed: int = 0, drive: str | None = None,
+        cost: str = "plain", global_search: GlobalOptions | None = None, progress: bool | None = None) -> FitResult:
+    """Fit `stage` ('current', 'cart' or 'pendulum') to one or more recordings jointly."""
+    if stage not in STAGES:
+        raise ParameterFileError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}, all")
+    values = {**rig_defaults(), **check_parameters(params or {})}
+    experiments = [make_experiment(r, stage, values, drive) for r in _recordings(recordings)]
+    names = [e.name for e in experiments]
+    if len(set(names)) != len(names):
+        raise RecordingError(f"two recordings share the name {sorted(n for n in names if names.count(n) > 1)[0]!r}")
+    free_parameters = _free_parameters(stage, experiments, free, list(fix), dict(bounds or {}))
+    options = global_search or GlobalOptions()
+    residuals = Residuals(experiments, free_parameters, values, cost)
+    spec = STAGES[stage]
+    coarse_values = {**values, **({"solver_step": spec.coarse_solver_step} if spec.coarse_solver_step else {})}
+    coarse = Residuals(experiments, free_parameters, coarse_values, cost, decimate=spec.coarse_decimate)
+    bar = Progress(stage, options.maxiter if options.enabled else 0, progress)
+    try:
+        outcome = optimize(residuals, coarse, _start(free_parameters, values, experiments), seed, options, bar)
+        estimates, correlation = estimate_uncertainty(free_parameters, outcome.u, outcome.jacobian, outcome.residual)
+        notes = list(outcome.messages)
+        if outcome.failures:
+            notes.append(f"{outcome.failures} simulations failed during the fit and were penalized "
+                         f"(last: {residuals.last_failure or coarse.last_failure})")
+        fitted = {p.name: p.value(float(x)) for p, x in zip(free_parameters, outcome.u) if p.experiment is None}
+        if stage == "pendulum" and "T_Sp" in fitted:
+            notes += _bound_stiction(residuals, outcome.u, free_parameters, estimates, fitted)
+        u_final = np.array([p.unit(fitted.get(p.name, p.value(float(x)))) if p.experiment is None else x
+                            for p, x in zip(free_parameters, outcome.u)])
+        fits = _experiment_fits(residuals, u_final)
+    finally:
+        bar.close()
+        residuals.close()
+        coarse.close()
+    initial: dict[str, dict[str, float]] = {}
+    for p, x in zip(free_parameters, outcome.u):
+        if p.experiment is not None:
+            initial.setdefault(p.experiment, {})[p.name] = p.value(float(x))
+    final = {**values, **fitted}
+    return FitResult(stage, final, estimates, correlation, 0.5 * float(outcome.residual @ outcome.residual),
+                     nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial, notes)
+
+
+def _experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]:
+    fits = []
+    for experiment, simulated in zip(residuals.experiments, residuals.simulate(u)):
+        recorded = {name: experiment.recorded(name) for name in experiment.stage.fitted}
+        fits.append(ExperimentFit(experiment.name, experiment.time, recorded,
+                                  {name: simulated[name] for name in recorded}))
+    return fits
+
+
+def _bound_stiction(residuals: Residuals, u: np.ndarray, free: list[FreeParameter],
+                    estimates: dict[str, Estimate], fitted: dict[str, float]) -> list[str]:
+    """A free decay only bounds T_Sp: the swing sticks at the first turning point where
+    the active torque is within the threshold max(T_Sp, T_Kp). Every T_Sp between the
+    torque at the final rest and the smallest torque of an earlier reversal gives the same
+    recording. If the recordings pin T_Sp (a nonzero sensitivity, e.g. with the rocking
+    experiment), it keeps its ordinary standard error."""
+    estimate = estimates["T_Sp"]
+    if estimate.stderr is not None and not any("wider than the value" in f for f in estimate.flags):
+        return []
+    low, high = 0.0, math.inf
+    for simulated in residuals.simulate(u, extra=("T_A", "w", "mode")):
+        mode, torque = simulated["mode"], np.abs(simulated["T_A"])
+        moving = mode != 0
+        reversal = moving[:-1] & moving[1:] & (np.sign(simulated["w"][:-1]) != np.sign(simulated["w"][1:]))
+        if reversal.any():
+            high = min(high, float(torque[1:][reversal].min()))
+        if mode[-1] == 0 and moving.any():
+            low = max(low, float(torque[-1]))
+    T_K = fitted.get("T_Kp", 0.0)
+    if T_K >= low:
+        low = 0.0  # the kinetic torque alone already holds the final rest
+    if not math.isfinite(high) or not high > low:
+        return ["T_Sp: the recordings neither show the pendulum stick nor reverse; no bound on T_Sp"]
+    value = 0.5 * (low + high)
+    fitted["T_Sp"] = value
+    estimates["T_Sp"] = replace(estimate, value=value, stderr=None, ci95=(low, high), flags=[
+        f"bounded only: every T_Sp in [{low:.4g}, {high:.4g}] N.m gives the same free decay (the swing sticks at "
+        f"the first turning point where |T_A| <= T_Sp); the value is the interval's middle. Record the "
+        f"'pendulum-stiction' experiment (pendfmu rig) to pin it down"])
+    return [f"T_Sp is set-identified by the free decay: [{low:.4g}, {high:.4g}] N.m"]
+
+
+HARMONIC = ("a_h", "f_h", "phase_h")
+HARMONIC_SIGNIFICANCE = 4.0  # peak amplitude over the residual's noise amplitude, to count as ripple
+
+
+def detect_harmonic(result: FitResult) -> dict[str, float] | None:
+    """The PWM ripple left in a current fit's residual: the strongest periodogram peak of
+    the residuals (evenly sampled recordings), if it stands well above the noise floor.
+    A sinusoid's frequency makes a cost with many local minima, so it is seeded from the
+    spectrum rather than searched; amplitude and phase follow by linear least squares."""
+    best = None
+    for fit_ in result.experiments:
+        time, residual = fit_.time, fit_.recorded["I"] - fit_.simulated["I"]
+        steps = np.diff(time)
+        if len(time) < 64 or np.ptp(steps) > 1e-6 * steps.mean():
+            continue
+        spectrum = np.abs(np.fft.rfft(residual - residual.mean())) * 2 / len(residual)
+        frequencies = np.fft.rfftfreq(len(residual), steps.mean())
+        k = int(np.argmax(spectrum[1:])) + 1
+        floor = float(np.median(spectrum[1:])) or 1e-300
+        if spectrum[k] > HARMONIC_SIGNIFICANCE * floor * 3 and (best is None or spectrum[k] > best[0]):
+            # refine the frequency by a parabola through the peak's neighbours (log amplitude)
+            if 1 <= k < len(spectrum) - 1:
+                a, b, c = np.log(spectrum[k - 1:k + 2] + 1e-300)
+                shift = 0.5 * (a - c) / (a - 2 * b + c) if (a - 2 * b + c) else 0.0
+            else:
+                shift = 0.0
+            frequency = float(frequencies[k] + shift * (frequencies[1] - frequencies[0]))
+            basis = np.column_stack([np.sin(2 * np.pi * frequency * time), np.cos(2 * np.pi * frequency * time)])
+            (s, c), *_ = np.linalg.lstsq(basis, residual, rcond=None)
+            best = (float(spectrum[k]), {"a_h": float(math.hypot(s, c)), "f_h": frequency,
+                                         "phase_h": float(math.atan2(c, s))})
+    return best[1] if best else None
+
+
+def fit_current(recordings, params=None, seed: int = 0, cost: str = "plain", harmonic: bool | None = None,
+                global_search: GlobalOptions | None = None, progress: bool | None = None, **options) -> FitResult:
+    """The current stage, with the PWM ripple: unless harmonic=False, a harmonic found in
+    the residual of the lag fit is added to the free parameters and fitted with them."""
+    first = fit("current", recordings, params, seed=seed, cost=cost, global_search=global_search,
+                progress=progress, **options)
+    if harmonic is False or any(name in first.estimates for name in HARMONIC):
+        return first
+    found = detect_harmonic(first)
+    if found is None:
+        first.notes.append("no PWM ripple found in the residual (harmonic not fitted)")
+        return first
+    bounds = {"a_h": (0.0, max(4 * found["a_h"], 1e-3)), "f_h": (0.9 * found["f_h"], 1.1 * found["f_h"]),
+              "phase_h": (found["phase_h"] - math.pi, found["phase_h"] + math.pi), **options.pop("bounds", {})}
+    second = fit("current", recordings, {**first.parameters, **found}, free=list(HARMONIC), bounds=bounds,
+                 seed=seed, cost=cost, global_search=GlobalOptions(enabled=False), progress=progress, **options)
+    second.notes.append(f"PWM ripple found in the residual near {found['f_h']:.6g} Hz and fitted")
+    second.nfev += first.nfev
+    second.seconds += first.seconds
+    return second
+
+
+def classify(recording: Recording) -> str | None:
+    """Which stage a recording of a folder belongs to (None: a validation recording)."""
+    signals = set(recording.signals)
+    if "x" in signals and "phi" in signals:
+        return None
+    if "phi" in signals:
+        return "pendulum"
+    if "x" in signals:
+        return "cart"
+    if {"I_c", "I"} <= signals:
+        return "current"
+    return None
+
+
+def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed: int = 0, cost: str = "plain",
+            global_search: GlobalOptions | None = None, progress: bool | None = None) -> FitResult:
+    """The paper's sequence on a folder of recordings: current, then cart, then pendulum,
+    each stage starting from the previous stage's result. Recordings with both x and phi
+    are not fitted; they check the identified model (see validate)."""
+    folder = Path(folder)
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".csv", ".mat"))
+    if not files:
+        raise RecordingError(f"{folder}: no recordings (.csv or .mat) in this folder")
+    groups: dict[str | None, list[Recording]] = {}
+    for path in files:
+        recording = read_recording(path)
+        groups.setdefault(classify(recording), []).append(recording)
+    values = dict(params or {})
+    results = []
+    for stage in ("current", "cart", "pendulum"):
+        if groups.get(stage):
+            run = fit_current if stage == "current" else (lambda *a, **k: fit(stage, *a, **k))
+            result = run(groups[stage], values, seed=seed, cost=cost, global_search=global_search,
+                         progress=progress)
+            values = dict(result.parameters)
+            results.append(result)
+    if not results:
+        raise RecordingError(f"{folder}: no recording fits a stage (current: I_c and I; cart: x; pendulum: phi)")
+    return _combine(results, values, groups.get(None, []))
+
+
+def _combine(results: list[FitResult], values: dict[str, float], validation: list[Recording]) -> FitResult:
+    combined = FitResult(
+        "all", values, {k: e for r in results for k, e in r.estimates.items()},
+        {k: c for r in results for k, c in r.correlation.items()}, sum(r.cost for r in results),
+        {f"{r.stage}.{s}": v for r in results for s, v in r.nrmse.items()}, sum(r.nfev for r in results),
+        sum(r.failures for r in results), sum(r.seconds for r in results),
+        [e for r in results for e in r.experiments], {k: v for r in results for k, v in r.initial.items()},
+        [f"{r.stage}: {n}" for r in results for n in r.notes])
+    if validation:
+        combined.notes.append("not fitted (both x and phi: validation recordings): "
+                              + ", ".join(r.path.name for r in validation))
+    return combined

@@ -1,0 +1,122 @@
+"""Residuals: the output error of a stage's simulations against its recordings.
+
+Free parameters live in a unit box: each is mapped from u in [0, 1] to its physical
+bounds, logarithmically for positive quantities spanning decades (friction, time
+constants), linearly otherwise. The optimizers see well-scaled, simply bounded
+coordinates, and a confidence interval mapped back through the log stays positive.
+
+Each residual is divided by its signal's error scale (sensor noise and quantization, see
+experiment.signal_scale), so recordings of different sensors weigh by information, and a
+fit at the truth has residuals of unit spread. The quantization-aware variant treats a
+simulated value that lies inside the recorded reading's quantization interval as exact
+(residual 0) and only counts the distance beyond the interval's edge.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pendfmu.experiment import Experiment
+from pendfmu.simulator.component import FMUError
+from pendfmu.simulator.stage import StageSimulator
+
+PENALTY = 1e3  # residual given to every sample of a simulation that failed
+COSTS = ("plain", "quantized")
+
+
+@dataclass(frozen=True)
+class FreeParameter:
+    """A fitted quantity: a rig parameter (experiment None), or an initial state of one
+    experiment (e.g. the pendulum's release angle)."""
+
+    name: str
+    low: float
+    high: float
+    log: bool
+    experiment: str | None = None
+
+    @property
+    def label(self) -> str:
+        return self.name if self.experiment is None else f"{self.name}[{self.experiment}]"
+
+    def value(self, u: float) -> float:
+        if self.log:
+            return self.low * (self.high / self.low) ** u
+        return self.low + (self.high - self.low) * u
+
+    def unit(self, value: float) -> float:
+        if self.log:
+            return math.log(value / self.low) / math.log(self.high / self.low)
+        return (value - self.low) / (self.high - self.low)
+
+    def derivative(self, u: float) -> float:
+        """dvalue/du, to carry uncertainties from the unit box to the parameter."""
+        return self.value(u) * math.log(self.high / self.low) if self.log else self.high - self.low
+
+
+class Residuals:
+    """The residual vector of a stage's experiments as a function of the unit-box vector."""
+
+    def __init__(self, experiments: Sequence[Experiment], free: Sequence[FreeParameter],
+                 shared: Mapping[str, float], cost: str = "plain", decimate: int = 1):
+        if cost not in COSTS:
+            raise ValueError(f"cost must be one of {', '.join(COSTS)}, not {cost!r}")
+        self.experiments = list(experiments)
+        self.free = list(free)
+        self.shared = dict(shared)
+        self.cost = cost
+        self.simulators = [StageSimulator(e, decimate) for e in self.experiments]
+        self.evaluations = 0
+        self.failures = 0
+        self.last_failure = ""
+        self.size = sum(len(s.times) * len(e.stage.fitted) for s, e in zip(self.simulators, self.experiments))
+
+    def values(self, u: Sequence[float], experiment: Experiment) -> dict[str, float]:
+        """All parameter values one experiment runs with."""
+        values = {**self.shared, **experiment.fixed}
+        for p, x in zip(self.free, u):
+            if p.experiment is None or p.experiment == experiment.name:
+                values[p.name] = p.value(float(x))
+        return values
+
+    def simulate(self, u: Sequence[float], extra: tuple[str, ...] = ()) -> list[dict[str, np.ndarray]]:
+        return [s.simulate(self.values(u, e), extra) for s, e in zip(self.simulators, self.experiments)]
+
+    def __call__(self, u: Sequence[float]) -> np.ndarray:
+        self.evaluations += 1
+        try:
+            simulated = self.simulate(u)
+        except FMUError as error:
+            self.failures += 1
+            self.last_failure = str(error)
+            return np.full(self.size, PENALTY)
+        parts = []
+        for simulator, experiment, result in zip(self.simulators, self.experiments, simulated):
+            for name in experiment.stage.fitted:
+                parts.append(self._scaled(experiment, name, result[name], simulator.index))
+        residual = np.concatenate(parts)
+        if not np.all(np.isfinite(residual)):
+            self.failures += 1
+            self.last_failure = "the simulation returned NaN or Inf"
+            return np.full(self.size, PENALTY)
+        return residual
+
+    def _scaled(self, experiment: Experiment, name: str, simulated: np.ndarray, index: np.ndarray) -> np.ndarray:
+        error = simulated - experiment.recorded(name)[index]
+        scale = experiment.scales[name]
+        resolution = experiment.recording.resolution(name)
+        if self.cost == "quantized" and resolution:
+            error = np.sign(error) * np.maximum(np.abs(error) - resolution / 2, 0.0)
+        return error / scale
+
+    def sum_of_squares(self, u: Sequence[float]) -> float:
+        residual = self(u)
+        return float(residual @ residual)
+
+    def close(self) -> None:
+        for simulator in self.simulators:
+            simulator.close()

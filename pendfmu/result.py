@@ -1,0 +1,170 @@
+"""The result of a fit: values, uncertainty, identifiability flags, fit quality.
+
+Uncertainty comes from the Jacobian J of the scaled residuals at the optimum (in the
+unit box): cov = s^2 (J^T J)^+, with s^2 the residual variance per degree of freedom,
+carried to each parameter through its mapping (so log-mapped intervals stay positive).
+A parameter is flagged, with the reason, when it sits at a bound, when its 95 % interval
+is wider than its value, when it correlates above 0.95 with another, or when the
+recordings do not depend on it at all (a zero Jacobian column). Parameters a recording
+only bounds (the pendulum's stiction in a free decay) carry the interval they are
+confined to instead of a standard error.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pendfmu.residuals import FreeParameter
+
+Z95 = 1.959963984540054
+CORRELATION_LIMIT = 0.95
+
+
+@dataclass
+class Estimate:
+    """One fitted quantity."""
+
+    label: str
+    value: float
+    stderr: float | None
+    ci95: tuple[float, float] | None
+    low: float
+    high: float
+    flags: list[str] = field(default_factory=list)
+
+
+@dataclass
+class ExperimentFit:
+    """Recorded against simulated signals of one recording, for reports."""
+
+    name: str
+    time: np.ndarray
+    recorded: dict[str, np.ndarray]
+    simulated: dict[str, np.ndarray]
+
+
+@dataclass
+class FitResult:
+    stage: str
+    parameters: dict[str, float]  # every value the stage ran with, fitted and known
+    estimates: dict[str, Estimate]  # the fitted ones, by label
+    correlation: dict[str, dict[str, float]]
+    cost: float
+    nrmse: dict[str, float]
+    nfev: int
+    failures: int
+    seconds: float
+    experiments: list[ExperimentFit] = field(default_factory=list)
+    initial: dict[str, dict[str, float]] = field(default_factory=dict)  # estimated initial states per recording
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def stderr(self) -> dict[str, float | None]:
+        return {k: e.stderr for k, e in self.estimates.items()}
+
+    @property
+    def ci95(self) -> dict[str, tuple[float, float] | None]:
+        return {k: e.ci95 for k, e in self.estimates.items()}
+
+    @property
+    def flags(self) -> dict[str, list[str]]:
+        return {k: e.flags for k, e in self.estimates.items() if e.flags}
+
+    def to_dict(self) -> dict:
+        shared = {k: e for k, e in self.estimates.items() if "[" not in k}
+        return {
+            "parameters": dict(self.parameters),
+            "stderr": {k: e.stderr for k, e in shared.items()},
+            "ci95": {k: list(e.ci95) if e.ci95 else None for k, e in shared.items()},
+            "flags": {k: e.flags for k, e in self.estimates.items() if e.flags},
+            "initial": self.initial,
+            "fit": {"stage": self.stage, "cost": self.cost, "nrmse": self.nrmse, "nfev": self.nfev,
+                    "failures": self.failures, "seconds": self.seconds, "notes": self.notes},
+        }
+
+    def write_json(self, path: str | Path) -> Path:
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False, default=_plain) + "\n")
+        return path
+
+    def write_report(self, directory: str | Path) -> Path:
+        from pendfmu.report import write_report
+
+        return write_report(self, directory)
+
+    def export(self, directory: str | Path) -> list[Path]:
+        from pendfmu.export import export_all
+
+        return export_all(self.parameters, directory)
+
+
+def _plain(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"cannot write {type(value).__name__} to JSON")
+
+
+def estimate_uncertainty(free: list[FreeParameter], u: np.ndarray, jacobian: np.ndarray,
+                         residual: np.ndarray) -> tuple[dict[str, Estimate], dict[str, dict[str, float]]]:
+    """Estimates with standard errors, 95 % intervals, correlations and flags."""
+    m, n = jacobian.shape
+    dof = max(m - n, 1)
+    variance = float(residual @ residual) / dof
+    norms = np.linalg.norm(jacobian, axis=0) if n else np.zeros(0)
+    sensitive = norms > 1e-9 * (norms.max() if n and norms.max() > 0 else 1.0)
+    covariance = np.full((n, n), np.nan)
+    if sensitive.any():
+        J = jacobian[:, sensitive]
+        covariance_sub = variance * np.linalg.pinv(J.T @ J)
+        indices = np.flatnonzero(sensitive)
+        covariance[np.ix_(indices, indices)] = covariance_sub
+    sigma_u = np.sqrt(np.clip(np.diag(covariance), 0, None))
+    estimates: dict[str, Estimate] = {}
+    for k, p in enumerate(free):
+        value = p.value(float(u[k]))
+        estimate = Estimate(p.label, value, None, None, p.low, p.high)
+        if sensitive[k] and np.isfinite(sigma_u[k]):
+            estimate.stderr = abs(p.derivative(float(u[k]))) * float(sigma_u[k])
+            lo, hi = p.value(float(u[k]) - Z95 * sigma_u[k]), p.value(float(u[k]) + Z95 * sigma_u[k])
+            estimate.ci95 = (min(lo, hi), max(lo, hi))
+            if estimate.ci95[1] - estimate.ci95[0] > abs(value):
+                estimate.flags.append(f"95 % interval [{estimate.ci95[0]:.4g}, {estimate.ci95[1]:.4g}] is wider "
+                                      f"than the value: the recordings hardly determine it")
+        else:
+            estimate.flags.append("the recordings do not depend on it (zero sensitivity): not identifiable here")
+        if u[k] <= 1e-6 or u[k] >= 1 - 1e-6:
+            side = "lower" if u[k] <= 1e-6 else "upper"
+            estimate.flags.append(f"at its {side} bound {p.low if side == 'lower' else p.high:g}: "
+                                  f"the optimum may lie beyond; widen the bounds or check the model")
+        estimates[p.label] = estimate
+    correlation: dict[str, dict[str, float]] = {}
+    for i, p in enumerate(free):
+        correlation[p.label] = {}
+        for j, q in enumerate(free):
+            denominator = sigma_u[i] * sigma_u[j]
+            value = covariance[i, j] / denominator if denominator > 0 else float("nan")
+            correlation[p.label][q.label] = float(value) if math.isfinite(value) else None
+            if i != j and math.isfinite(value) and abs(value) > CORRELATION_LIMIT:
+                estimates[p.label].flags.append(f"correlated {value:+.3f} with {q.label}: only a combination of the "
+                                                f"two is determined")
+    return estimates, correlation
+
+
+def nrmse(experiments: list[ExperimentFit]) -> dict[str, float]:
+    """Root-mean-square error per signal over all recordings, divided by the recorded range."""
+    pooled: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+    for fit in experiments:
+        for name, recorded in fit.recorded.items():
+            pooled.setdefault(name, []).append((recorded, fit.simulated[name]))
+    result = {}
+    for name, pairs in pooled.items():
+        recorded = np.concatenate([r for r, _ in pairs])
+        simulated = np.concatenate([s for _, s in pairs])
+        spread = float(np.ptp(recorded)) or 1.0
+        result[name] = float(np.sqrt(np.mean((simulated - recorded) ** 2)) / spread)
+    return result

@@ -1,0 +1,98 @@
+"""The native stepping path: a small C library that runs the communication loop.
+
+It is compiled from fmus/runner/runner.c with the FMUs' toolchain into fmus/build/ (not
+committed), rebuilt when its source changes, and loaded with ctypes. It calls the fmi2
+functions of an instance that fmpy created, through function pointers taken from fmpy's
+loaded library, so everything about the instance (parameters, logging, errors) stays in
+the fmpy layer and only the loop moves to C.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from pendfmu.fmubuild.compiler import CFLAGS, FMI_HEADERS, FMUS_DIR, BuildError
+
+SOURCE = FMUS_DIR / "runner" / "runner.c"
+BUILD_DIR = FMUS_DIR / "build"
+
+
+class Unit(ctypes.Structure):
+    _fields_ = [("component", ctypes.c_void_p), ("set_real", ctypes.c_void_p),
+                ("get_real", ctypes.c_void_p), ("do_step", ctypes.c_void_p),
+                ("set_input_derivatives", ctypes.c_void_p)]
+
+
+def _library_path() -> Path:
+    digest = hashlib.sha256(SOURCE.read_bytes() + " ".join(CFLAGS).encode()).hexdigest()[:16]
+    return BUILD_DIR / f"runner-{digest}.so"
+
+
+@lru_cache(maxsize=1)
+def library() -> ctypes.CDLL:
+    """The runner library, compiled first if missing or stale."""
+    import subprocess
+
+    path = _library_path()
+    if not path.exists():
+        BUILD_DIR.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(f".{path.name}.{os.getpid()}")
+        command = [os.environ.get("CC", "gcc"), *CFLAGS, "-shared", "-I", str(FMI_HEADERS), str(SOURCE),
+                   "-o", str(partial)]
+        done = subprocess.run(command, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise BuildError(f"compiling {SOURCE} failed:\n{done.stderr}")
+        os.replace(partial, path)
+    lib = ctypes.CDLL(str(path))
+    lib.pendfmu_run_single.restype = ctypes.c_long
+    lib.pendfmu_run_single.argtypes = [
+        ctypes.POINTER(Unit), ctypes.c_size_t, ctypes.POINTER(ctypes.c_double),
+        ctypes.c_size_t, ctypes.POINTER(ctypes.c_uint), ctypes.POINTER(ctypes.c_double),
+        ctypes.POINTER(ctypes.c_double), ctypes.c_size_t, ctypes.POINTER(ctypes.c_uint),
+        ctypes.POINTER(ctypes.c_double)]
+    return lib
+
+
+def unit_of(slave) -> Unit:
+    """The C view of an fmpy FMU2Slave instance: its component and fmi2 functions."""
+    address = lambda function: ctypes.cast(function, ctypes.c_void_p).value  # noqa: E731
+    return Unit(slave.component, address(slave.dll.fmi2SetReal), address(slave.dll.fmi2GetReal),
+                address(slave.dll.fmi2DoStep), address(slave.dll.fmi2SetRealInputDerivatives))
+
+
+def _doubles(array: np.ndarray):
+    return array.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+
+def _refs(values: list[int]):
+    return (ctypes.c_uint * len(values))(*values) if values else None
+
+
+MAX_INPUTS = 64
+
+
+def run_single(slave, times: np.ndarray, input_vrs: list[int], inputs: np.ndarray, output_vrs: list[int],
+               slopes: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """Step an initialized instance through `times`; each input is set to its value at
+    the step's start and, with `slopes`, follows that slope over the step (linear
+    interpolation through fmi2SetRealInputDerivatives), else it is held.
+
+    Returns (outputs n_points x n_outputs, index of a failing point or -1)."""
+    if len(input_vrs) > MAX_INPUTS:
+        raise ValueError(f"the native loop takes at most {MAX_INPUTS} inputs")
+    times = np.ascontiguousarray(times, dtype=float)
+    inputs = np.ascontiguousarray(inputs, dtype=float).reshape(len(times), len(input_vrs))
+    if slopes is not None:
+        slopes = np.ascontiguousarray(slopes, dtype=float).reshape(len(times), len(input_vrs))
+    outputs = np.empty((len(times), len(output_vrs)))
+    unit = unit_of(slave)
+    failed = library().pendfmu_run_single(
+        ctypes.byref(unit), len(times), _doubles(times), len(input_vrs), _refs(input_vrs), _doubles(inputs),
+        None if slopes is None else _doubles(slopes), len(output_vrs), _refs(output_vrs), _doubles(outputs))
+    return outputs, int(failed)
