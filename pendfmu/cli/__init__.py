@@ -13,10 +13,10 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-from pendfmu.cli import build, demo, rig, simulate
+from pendfmu.cli import build, demo, export, rig, simulate
 from pendfmu.errors import BAD_INPUT_ERRORS, UsageError
 
-SUBCOMMANDS = {"build": build, "demo": demo, "simulate": simulate, "rig": rig}
+SUBCOMMANDS = {"build": build, "demo": demo, "simulate": simulate, "rig": rig, "export": export}
 
 
 class _Parser(argparse.ArgumentParser):

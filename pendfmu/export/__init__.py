@@ -1,0 +1,59 @@
+"""Export identified parameters for other tools (``pendfmu export``).
+
+:func:`export_all` writes, into one directory:
+
+- ``<Name>.fmu`` for each exported component: the built FMU with the new parameter start
+  values, a fresh GUID and ``resources/pendfmu-start.txt``; binaries and sources are the
+  original bytes (:mod:`pendfmu.export.fmu`);
+- ``parameters.ssv``: SSP 1.0 parameter values, named ``Component.parameter``
+  (:mod:`pendfmu.export.ssv`);
+- ``modifiers.mo``: Modelica declarations and a complete rig model for the PendulumID
+  library (:mod:`pendfmu.export.modelica`).
+
+Which components are exported and which values each receives is decided first, by
+:func:`plan_export` (:mod:`pendfmu.export.plan`), so a bad value stops the export before
+any file is written.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+from pendfmu.errors import UsageError
+from pendfmu.export.fmu import START_FILE, write_parameterized_fmu
+from pendfmu.export.modelica import write_modifiers
+from pendfmu.export.plan import ExportPlan, plan_export
+from pendfmu.export.ssv import write_parameter_values
+
+__all__ = ["ExportPlan", "START_FILE", "export_all", "plan_export", "write_export"]
+
+SSV_FILE = "parameters.ssv"
+MODELICA_FILE = "modifiers.mo"
+
+
+def write_export(plan: ExportPlan, out_dir: str | Path) -> list[Path]:
+    """Write the files of a checked `plan` into `out_dir`; return their paths (FMUs first)."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UsageError(f"{out_dir}: exists and is not a directory")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = [write_parameterized_fmu(name, values, out_dir / f"{name}.fmu", plan.source)
+             for name, values in plan.components.items()]
+    values = {name: plan.start_values(name) for name in plan.components}
+    set_name = Path(plan.source).stem if plan.source.endswith(".json") else "exported"
+    paths.append(write_parameter_values(values, out_dir / SSV_FILE, set_name))
+    paths.append(write_modifiers(plan, out_dir / MODELICA_FILE))
+    return paths
+
+
+def export_all(parameters: Mapping[str, object], out_dir: str | Path, *, components: Iterable[str] | None = None,
+               source: str | None = None) -> list[Path]:
+    """Check `parameters` (rig names -> values) and write the FMUs, SSV and Modelica files.
+
+    `components` picks the FMUs to write (default: every component one of the given
+    names belongs to; all three when none is given). `source` names where the values came
+    from (the parameters file), for the descriptions in the files. Raises
+    ParameterFileError for an unknown name or a value a component cannot take.
+    """
+    return write_export(plan_export(parameters, components, source), out_dir)

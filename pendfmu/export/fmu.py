@@ -1,0 +1,133 @@
+"""Parameterized copies of the component FMUs, without recompiling.
+
+An exported FMU is the built FMU with three changes (``fmus/framework/start.c`` is the
+binary's side of this contract):
+
+- ``modelDescription.xml`` gets a fresh GUID, the new start values of the given
+  parameters and a description that says where they came from; everything else,
+  formatting included, is kept, so a diff against the original shows only those;
+- ``resources/pendfmu-start.txt`` repeats the GUID and every parameter's start value by
+  value reference. The binary accepts a GUID other than its own only when this file
+  names it, and then computes with these values, after fmi2Instantiate and fmi2Reset;
+- binaries and sources are copied byte for byte: the FMU's behaviour is the tested one.
+
+The start file lists *every* parameter, read back from the edited XML, so what the XML
+declares and what the binary computes with cannot differ, whatever the defaults are.
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import uuid
+import zipfile
+from collections.abc import Mapping
+from pathlib import Path
+
+from lxml import etree
+
+from pendfmu import __version__
+from pendfmu.fmubuild import ensure_fmu
+
+MODEL_DESCRIPTION = "modelDescription.xml"
+START_FILE = "resources/pendfmu-start.txt"
+
+
+def new_guid() -> str:
+    """A random GUID in braces, like the built FMUs' (theirs is a hash of the sources)."""
+    return "{" + str(uuid.uuid4()) + "}"
+
+
+def _parse(data: bytes) -> etree._Element:
+    """Parse a model description, keeping its whitespace so it is written back as it was."""
+    return etree.fromstring(data, etree.XMLParser(remove_blank_text=False, resolve_entities=False, no_network=True))
+
+
+def _now() -> str:
+    """xs:dateTime of now in UTC, for generationDateAndTime."""
+    return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+
+
+def parameterized_description(original: bytes, values: Mapping[str, float], guid: str, source: str) -> bytes:
+    """`original` modelDescription.xml with `guid`, the start values `values` and provenance.
+
+    Only attributes change: guid, description, generationTool, generationDateAndTime and
+    the start attribute of each given parameter (written with repr, which reads back to
+    the same double). A name that is not a parameter of the FMU is an internal error:
+    the plan has already checked the names against the component table.
+    """
+    root = _parse(original)
+    root.set("guid", guid)
+    changed = ", ".join(values) if values else "no values changed"
+    root.set("description", f"{root.get('description', '')} [parameterized by pendfmu export from {source}: "
+                            f"{changed}]")
+    root.set("generationTool", f"pendfmu {__version__} export (parameterized copy of {root.get('generationTool')})")
+    root.set("generationDateAndTime", _now())
+    found = set()
+    for variable in root.iterfind("ModelVariables/ScalarVariable"):
+        name = variable.get("name")
+        if name in values:
+            if variable.get("causality") != "parameter" or variable.find("Real") is None:
+                raise ValueError(f"{root.get('modelName')}: {name} is not a Real parameter")
+            variable.find("Real").set("start", repr(float(values[name])))
+            found.add(name)
+    missing = set(values) - found
+    if missing:
+        raise ValueError(f"{root.get('modelName')} has no parameter {', '.join(sorted(missing))}")
+    data = etree.tostring(root.getroottree(), xml_declaration=True, encoding="UTF-8")
+    return data if data.endswith(b"\n") else data + b"\n"
+
+
+def start_file_text(description: bytes) -> str:
+    """The resources/pendfmu-start.txt that goes with a model description.
+
+    First line ``guid {GUID}``, then for every Real parameter a comment line with its name
+    and unit and a line ``<value reference> <start value>``, the start text taken from the
+    XML as is. Lines stay short: the binary reads lines of at most 255 characters.
+    """
+    root = _parse(description)
+    lines = [f"guid {root.get('guid')}",
+             f"# start values of {root.get('modelName')} parameters: <value reference> <value>"]
+    for variable in root.iterfind("ModelVariables/ScalarVariable"):
+        real = variable.find("Real")
+        if variable.get("causality") == "parameter" and real is not None:
+            lines.append(f"# {variable.get('name')} [{real.get('unit', '')}]")
+            lines.append(f"{variable.get('valueReference')} {real.get('start')}")
+    return "\n".join(lines) + "\n"
+
+
+def _copy_info(info: zipfile.ZipInfo) -> zipfile.ZipInfo:
+    """A fresh ZipInfo with the member's name, time, compression and permissions."""
+    copy = zipfile.ZipInfo(info.filename, info.date_time)
+    copy.compress_type = info.compress_type
+    copy.external_attr = info.external_attr
+    return copy
+
+
+def write_parameterized_fmu(name: str, values: Mapping[str, float], target: str | Path,
+                            source: str = "parameters given in Python") -> Path:
+    """Write component `name`'s FMU with start values `values` to `target`; return the path.
+
+    Every member but modelDescription.xml is copied byte for byte; a start file left by an
+    earlier export (there is none in a built FMU) would be replaced. The file appears
+    atomically: a reader never sees half an FMU.
+    """
+    original, target = ensure_fmu(name), Path(target)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    partial = target.with_name(f".{target.name}.{os.getpid()}.part")
+    try:
+        with zipfile.ZipFile(original) as src, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as dst:
+            description = parameterized_description(src.read(MODEL_DESCRIPTION), values, new_guid(), source)
+            for info in src.infolist():
+                if info.filename == MODEL_DESCRIPTION:
+                    dst.writestr(_copy_info(info), description)
+                elif info.filename != START_FILE:
+                    dst.writestr(_copy_info(info), src.read(info))
+            start = zipfile.ZipInfo(START_FILE, datetime.datetime.now().timetuple()[:6])
+            start.compress_type = zipfile.ZIP_DEFLATED
+            start.external_attr = 0o644 << 16
+            dst.writestr(start, start_file_text(description))
+        os.replace(partial, target)
+    finally:
+        partial.unlink(missing_ok=True)
+    return target
