@@ -22,7 +22,7 @@ from pendfmu.experiment import STAGES, Experiment, make_experiment
 from pendfmu.optimizer import GlobalOptions, optimize
 from pendfmu.parameters import ParameterFileError, check_parameters
 from pendfmu.recording import Recording, RecordingError, read_recording
-from pendfmu.residuals import FreeParameter, Residuals
+from pendfmu.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.result import Estimate, ExperimentFit, FitResult, estimate_uncertainty, nrmse
 
 # name: (low, high, logarithmic). Physical ranges wide enough for any lab rig.
@@ -74,8 +74,14 @@ def _recordings(recordings: Sequence[str | Path | Recording]) -> list[Recording]
     return [r if isinstance(r, Recording) else read_recording(r) for r in recordings]
 
 
+SEARCH_DECADE = 10.0  # default search box: the given value divided and multiplied by this
+STICTION_OF = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> the Coulomb friction it is fitted relative to
+STICTION_RATIO = (1.0, 10.0)
+
+
 def _free_parameters(stage: str, experiments: list[Experiment], free: Sequence[str] | None,
-                     fix: Sequence[str], bounds: Mapping[str, tuple[float, float]]) -> list[FreeParameter]:
+                     fix: Sequence[str], bounds: Mapping[str, tuple[float, float]],
+                     values: Mapping[str, float]) -> list[FreeParameter]:
     spec = STAGES[stage]
     component = COMPONENTS[spec.component]
     names = list(spec.default_free) + [n for n in (free or []) if n not in spec.default_free]
@@ -88,12 +94,22 @@ def _free_parameters(stage: str, experiments: list[Experiment], free: Sequence[s
         if name in fix:
             continue
         low, high, log = DEFAULT_BOUNDS.get(name, (None, None, False))
+        prior = values.get(name)
+        if log and prior and prior > 0 and name not in bounds:
+            # Search a decade either side of the given value: a lab engineer's prior is
+            # rarely off by more, and a box of five decades leaves the global search lost.
+            low, high = max(low, prior / SEARCH_DECADE), min(high, prior * SEARCH_DECADE)
+        relative_to = None
         if name in bounds:
             low, high = bounds[name]
             log = log and low > 0
+        elif name in STICTION_OF and STICTION_OF[name] in names and STICTION_OF[name] not in fix:
+            relative_to, (low, high), log = STICTION_OF[name], STICTION_RATIO, True
+        elif name in STICTION_OF:
+            low = max(low, values.get(STICTION_OF[name], 0.0))  # below Coulomb friction it has no effect
         if low is None or not high > low:
             raise ParameterFileError(f"parameter {name}: give bounds as --bounds {name}=LOW:HIGH (LOW < HIGH)")
-        result.append(FreeParameter(name, float(low), float(high), log))
+        result.append(FreeParameter(name, float(low), float(high), log, relative_to=relative_to))
     for experiment in experiments:
         for name, (_guess, low, high) in experiment.estimated.items():
             if name not in fix:
@@ -103,11 +119,8 @@ def _free_parameters(stage: str, experiments: list[Experiment], free: Sequence[s
 
 def _start(free: list[FreeParameter], values: Mapping[str, float], experiments: list[Experiment]) -> np.ndarray:
     guesses = {e.name: e.estimated for e in experiments}
-    u = []
-    for p in free:
-        guess = guesses[p.experiment][p.name][0] if p.experiment else values.get(p.name, p.low)
-        u.append(min(max(p.unit(guess) if (not p.log or guess > 0) else 0.0, 0.0), 1.0))
-    return np.array(u)
+    start = [guesses[p.experiment][p.name][0] if p.experiment else values.get(p.name, p.low) for p in free]
+    return unit_of(free, start)
 
 
 def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mapping[str, float] | None = None,
@@ -122,7 +135,7 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
     names = [e.name for e in experiments]
     if len(set(names)) != len(names):
         raise RecordingError(f"two recordings share the name {sorted(n for n in names if names.count(n) > 1)[0]!r}")
-    free_parameters = _free_parameters(stage, experiments, free, list(fix), dict(bounds or {}))
+    free_parameters = _free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values)
     options = global_search or GlobalOptions()
     residuals = Residuals(experiments, free_parameters, values, cost)
     spec = STAGES[stage]
@@ -136,20 +149,20 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
         if outcome.failures:
             notes.append(f"{outcome.failures} simulations failed during the fit and were penalized "
                          f"(last: {residuals.last_failure or coarse.last_failure})")
-        fitted = {p.name: p.value(float(x)) for p, x in zip(free_parameters, outcome.u) if p.experiment is None}
+        found = physical(free_parameters, outcome.u)
+        fitted = {p.name: float(v) for p, v in zip(free_parameters, found) if p.experiment is None}
         if stage == "pendulum" and "T_Sp" in fitted:
             notes += _bound_stiction(residuals, outcome.u, free_parameters, estimates, fitted)
-        u_final = np.array([p.unit(fitted.get(p.name, p.value(float(x)))) if p.experiment is None else x
-                            for p, x in zip(free_parameters, outcome.u)])
-        fits = _experiment_fits(residuals, u_final)
+        final_values = [fitted.get(p.name, v) if p.experiment is None else v for p, v in zip(free_parameters, found)]
+        fits = _experiment_fits(residuals, unit_of(free_parameters, final_values))
     finally:
         bar.close()
         residuals.close()
         coarse.close()
     initial: dict[str, dict[str, float]] = {}
-    for p, x in zip(free_parameters, outcome.u):
+    for p, value in zip(free_parameters, found):
         if p.experiment is not None:
-            initial.setdefault(p.experiment, {})[p.name] = p.value(float(x))
+            initial.setdefault(p.experiment, {})[p.name] = float(value)
     final = {**values, **fitted}
     return FitResult(stage, final, estimates, correlation, 0.5 * float(outcome.residual @ outcome.residual),
                      nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial, notes)
@@ -175,24 +188,25 @@ def _bound_stiction(residuals: Residuals, u: np.ndarray, free: list[FreeParamete
     if estimate.stderr is not None and not any("wider than the value" in f for f in estimate.flags):
         return []
     low, high = 0.0, math.inf
-    for simulated in residuals.simulate(u, extra=("T_A", "w", "mode")):
-        mode, torque = simulated["mode"], np.abs(simulated["T_A"])
-        moving = mode != 0
+    for simulated in residuals.simulate(u, extra=("T_A", "w", "alpha")):
+        torque = np.abs(simulated["T_A"])
+        moving = (simulated["w"] != 0) | (simulated["alpha"] != 0)  # stuck is exactly w = alpha = 0
         reversal = moving[:-1] & moving[1:] & (np.sign(simulated["w"][:-1]) != np.sign(simulated["w"][1:]))
         if reversal.any():
             high = min(high, float(torque[1:][reversal].min()))
-        if mode[-1] == 0 and moving.any():
+        if not moving[-1] and moving.any():
             low = max(low, float(torque[-1]))
     T_K = fitted.get("T_Kp", 0.0)
     if T_K >= low:
         low = 0.0  # the kinetic torque alone already holds the final rest
     if not math.isfinite(high) or not high > low:
         return ["T_Sp: the recordings neither show the pendulum stick nor reverse; no bound on T_Sp"]
-    value = 0.5 * (low + high)
+    # The least-assuming value: no more stiction than the recordings demand.
+    value = max(low, fitted.get("T_Kp", 0.0))
     fitted["T_Sp"] = value
     estimates["T_Sp"] = replace(estimate, value=value, stderr=None, ci95=(low, high), flags=[
         f"bounded only: every T_Sp in [{low:.4g}, {high:.4g}] N.m gives the same free decay (the swing sticks at "
-        f"the first turning point where |T_A| <= T_Sp); the value is the interval's middle. Record the "
+        f"the first turning point where |T_A| <= T_Sp); the value given is the least stiction the recordings demand. Record the "
         f"'pendulum-stiction' experiment (pendfmu rig) to pin it down"])
     return [f"T_Sp is set-identified by the free decay: [{low:.4g}, {high:.4g}] N.m"]
 

@@ -31,19 +31,26 @@ COSTS = ("plain", "quantized")
 @dataclass(frozen=True)
 class FreeParameter:
     """A fitted quantity: a rig parameter (experiment None), or an initial state of one
-    experiment (e.g. the pendulum's release angle)."""
+    experiment (e.g. the pendulum's release angle).
+
+    With `relative_to`, the unit-box coordinate maps to a ratio in [low, high] of another
+    free parameter: stiction is fitted as a multiple (>= 1) of Coulomb friction, because
+    below it stiction has no effect at all (the breakaway threshold is max(F_S, F_K)) and
+    a search that strayed there would find no gradient back."""
 
     name: str
     low: float
     high: float
     log: bool
     experiment: str | None = None
+    relative_to: str | None = None
 
     @property
     def label(self) -> str:
         return self.name if self.experiment is None else f"{self.name}[{self.experiment}]"
 
     def value(self, u: float) -> float:
+        """The coordinate's own value (a ratio, for a relative parameter)."""
         if self.log:
             return self.low * (self.high / self.low) ** u
         return self.low + (self.high - self.low) * u
@@ -54,8 +61,41 @@ class FreeParameter:
         return (value - self.low) / (self.high - self.low)
 
     def derivative(self, u: float) -> float:
-        """dvalue/du, to carry uncertainties from the unit box to the parameter."""
+        """d value / du."""
         return self.value(u) * math.log(self.high / self.low) if self.log else self.high - self.low
+
+
+def physical(free: Sequence[FreeParameter], u: Sequence[float]) -> np.ndarray:
+    """The physical value of every free parameter (relative ones resolved)."""
+    own = [p.value(float(x)) for p, x in zip(free, u)]
+    index = {p.label: k for k, p in enumerate(free)}
+    return np.array([own[k] * own[index[p.relative_to]] if p.relative_to else own[k]
+                     for k, p in enumerate(free)])
+
+
+def physical_jacobian(free: Sequence[FreeParameter], u: Sequence[float]) -> np.ndarray:
+    """d physical / d u, to carry the unit-box covariance to the parameters."""
+    n = len(free)
+    index = {p.label: k for k, p in enumerate(free)}
+    G = np.zeros((n, n))
+    for k, p in enumerate(free):
+        G[k, k] = p.derivative(float(u[k]))
+        if p.relative_to:
+            j = index[p.relative_to]
+            G[k, k] *= free[j].value(float(u[j]))
+            G[k, j] = p.value(float(u[k])) * free[j].derivative(float(u[j]))
+    return G
+
+
+def unit_of(free: Sequence[FreeParameter], values: Sequence[float]) -> np.ndarray:
+    """The unit-box vector of physical values (inverse of `physical`), clipped to the box."""
+    index = {p.label: k for k, p in enumerate(free)}
+    u = []
+    for p, value in zip(free, values):
+        own = value / values[index[p.relative_to]] if p.relative_to else value
+        own = min(max(own, p.low), p.high)
+        u.append(p.unit(own))
+    return np.array(u)
 
 
 class Residuals:
@@ -78,9 +118,9 @@ class Residuals:
     def values(self, u: Sequence[float], experiment: Experiment) -> dict[str, float]:
         """All parameter values one experiment runs with."""
         values = {**self.shared, **experiment.fixed}
-        for p, x in zip(self.free, u):
+        for p, value in zip(self.free, physical(self.free, u)):
             if p.experiment is None or p.experiment == experiment.name:
-                values[p.name] = p.value(float(x))
+                values[p.name] = float(value)
         return values
 
     def simulate(self, u: Sequence[float], extra: tuple[str, ...] = ()) -> list[dict[str, np.ndarray]]:

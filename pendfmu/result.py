@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.residuals import FreeParameter
+from pendfmu.residuals import FreeParameter, physical, physical_jacobian
 
 Z95 = 1.959963984540054
 CORRELATION_LIMIT = 0.95
@@ -113,46 +113,67 @@ def estimate_uncertainty(free: list[FreeParameter], u: np.ndarray, jacobian: np.
                          residual: np.ndarray) -> tuple[dict[str, Estimate], dict[str, dict[str, float]]]:
     """Estimates with standard errors, 95 % intervals, correlations and flags."""
     m, n = jacobian.shape
-    dof = max(m - n, 1)
-    variance = float(residual @ residual) / dof
+    variance = float(residual @ residual) / max(m - n, 1)
     norms = np.linalg.norm(jacobian, axis=0) if n else np.zeros(0)
     sensitive = norms > 1e-9 * (norms.max() if n and norms.max() > 0 else 1.0)
-    covariance = np.full((n, n), np.nan)
+    G = physical_jacobian(free, u)
+    covariance = np.zeros((n, n))
     if sensitive.any():
         J = jacobian[:, sensitive]
-        covariance_sub = variance * np.linalg.pinv(J.T @ J)
-        indices = np.flatnonzero(sensitive)
-        covariance[np.ix_(indices, indices)] = covariance_sub
-    sigma_u = np.sqrt(np.clip(np.diag(covariance), 0, None))
+        covariance_u = variance * np.linalg.pinv(J.T @ J)
+        covariance = G[:, sensitive] @ covariance_u @ G[:, sensitive].T
+    # A parameter that moves with an insensitive coordinate is not determined at all.
+    undetermined = (np.abs(G[:, ~sensitive]) > 0).any(axis=1) if n else np.zeros(0, bool)
+    covariance[undetermined, :] = np.nan
+    covariance[:, undetermined] = np.nan
+    sigma = np.sqrt(np.clip(np.diag(covariance), 0, None))
+    sensitive = ~undetermined
+    values = physical(free, u)
     estimates: dict[str, Estimate] = {}
     for k, p in enumerate(free):
-        value = p.value(float(u[k]))
+        value = float(values[k])
         estimate = Estimate(p.label, value, None, None, p.low, p.high)
-        if sensitive[k] and np.isfinite(sigma_u[k]):
-            estimate.stderr = abs(p.derivative(float(u[k]))) * float(sigma_u[k])
-            lo, hi = p.value(float(u[k]) - Z95 * sigma_u[k]), p.value(float(u[k]) + Z95 * sigma_u[k])
-            estimate.ci95 = (min(lo, hi), max(lo, hi))
+        if sensitive[k] and np.isfinite(sigma[k]):
+            estimate.stderr = float(sigma[k])
+            estimate.ci95 = _interval(value, float(sigma[k]), positive=p.log or p.relative_to is not None)
             if estimate.ci95[1] - estimate.ci95[0] > abs(value):
                 estimate.flags.append(f"95 % interval [{estimate.ci95[0]:.4g}, {estimate.ci95[1]:.4g}] is wider "
                                       f"than the value: the recordings hardly determine it")
         else:
             estimate.flags.append("the recordings do not depend on it (zero sensitivity): not identifiable here")
         if u[k] <= 1e-6 or u[k] >= 1 - 1e-6:
-            side = "lower" if u[k] <= 1e-6 else "upper"
-            estimate.flags.append(f"at its {side} bound {p.low if side == 'lower' else p.high:g}: "
-                                  f"the optimum may lie beyond; widen the bounds or check the model")
+            estimate.flags.append(_bound_flag(p, u[k] <= 1e-6))
         estimates[p.label] = estimate
     correlation: dict[str, dict[str, float]] = {}
     for i, p in enumerate(free):
         correlation[p.label] = {}
         for j, q in enumerate(free):
-            denominator = sigma_u[i] * sigma_u[j]
+            denominator = sigma[i] * sigma[j]
             value = covariance[i, j] / denominator if denominator > 0 else float("nan")
             correlation[p.label][q.label] = float(value) if math.isfinite(value) else None
             if i != j and math.isfinite(value) and abs(value) > CORRELATION_LIMIT:
                 estimates[p.label].flags.append(f"correlated {value:+.3f} with {q.label}: only a combination of the "
                                                 f"two is determined")
     return estimates, correlation
+
+
+def _interval(value: float, sigma: float, positive: bool) -> tuple[float, float]:
+    """95 % interval; for a positive quantity taken on the log scale, so it stays positive."""
+    if positive and value > 0:
+        factor = math.exp(Z95 * sigma / value)
+        return value / factor, value * factor
+    return value - Z95 * sigma, value + Z95 * sigma
+
+
+def _bound_flag(p: FreeParameter, lower: bool) -> str:
+    if p.relative_to:
+        ratio = p.low if lower else p.high
+        if lower:
+            return f"at its lower bound: equal to {p.relative_to} (no stiction beyond Coulomb friction)"
+        return f"at {ratio:g} times {p.relative_to}, the upper bound of the search: widen it with --bounds"
+    bound = p.low if lower else p.high
+    return (f"at its {'lower' if lower else 'upper'} bound {bound:g}: the optimum may lie beyond; "
+            f"widen the bounds (--bounds) or check the model")
 
 
 def nrmse(experiments: list[ExperimentFit]) -> dict[str, float]:

@@ -148,7 +148,7 @@ def simulate_truth(experiment: Experiment, truth: Mapping[str, float]) -> dict[s
                                   derivatives=lambda t: {"a": [_slope(experiment.drive, t)]})
         return {"time": times, "a": np.array([experiment.drive(t) for t in times]), **result}
     components = {"CurrentLoop": "CurrentLoop", "Cart": "Cart"}
-    connections = [Connection("CurrentLoop", "I", "Cart", "I")]
+    connections = [Connection("CurrentLoop", "I_mean", "Cart", "I")]
     outputs = ["CurrentLoop.I", "Cart.x", "Cart.v"]
     if experiment.kind == "rig":
         components["Pendulum"] = "Pendulum"

@@ -13,7 +13,8 @@ depends on time only, to ~rtol otherwise).
 
 The model (MODEL.md, SI units)
 ------------------------------
-Current loop:  dI/dt = dIdt_max * sat((I_c - I)/(T_i*dIdt_max)); output I + a_h*sin(...)
+Current loop:  dI/dt = dIdt_max * sat((I_c - I)/(T_i*dIdt_max)); measured output I + a_h*sin(...);
+               the cart is driven by the ripple-free I
 Cart:          (m_c + m_p) a = F_A - F_F
                F_A = eta*k_M*k_D*I + A*m_p*l*(w^2 sin(phi) - alpha cos(phi)),
                A = max(0, (2 eta - 1)/eta)
@@ -288,9 +289,10 @@ class _Rig:
             z = u.Ic(t) - I_s
             dI = z / p["T_i"] if mI == 0 else mI * p["dIdt_max"]
             I = I_s + self.harm(t)
+            I_force = I_s  # the ripple is on the measured current; the mechanics see the mean
         else:
             dI = 0.0
-            I = u.I(t)
+            I = I_force = u.I(t)
         if self.pend == "given":
             phi, w, alpha_in = u.pend(t)
         s, c = math.sin(phi), math.cos(phi)
@@ -302,11 +304,11 @@ class _Rig:
             alpha = 0.0 if mp == 0 else (T_A - self.pj.sliding(w, mp)) / self.J
         elif self.pend == "given":
             alpha = alpha_in
-            F_A = self.kF * I + A * ml * (w * w * s - alpha * c)
+            F_A = self.kF * I_force + A * ml * (w * w * s - alpha * c)
             a = 0.0 if mc == 0 else (F_A - self.cj.sliding(v, mc)) / self.M
             T_A = ml * (p["g"] * s - a * c)  # what the cart would exert on the pendulum
         else:
-            F0 = self.kF * I + A * ml * w * w * s  # cart active force without the alpha term
+            F0 = self.kF * I_force + A * ml * w * w * s  # cart active force without the alpha term
             Tg = ml * p["g"] * s                   # pendulum active torque without the a term
             if mc != 0 and mp != 0:                # both sliding: the coupled 2x2 system
                 b1 = F0 - self.cj.sliding(v, mc)

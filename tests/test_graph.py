@@ -5,7 +5,7 @@ from __future__ import annotations
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
 from pendfmu.simulator.master import Master, feedthrough_of
 
-ONE_WAY = [Connection("CurrentLoop", "I", "Cart", "I"), Connection("Cart", "a", "Pendulum", "a")]
+ONE_WAY = [Connection("CurrentLoop", "I_mean", "Cart", "I"), Connection("Cart", "a", "Pendulum", "a")]
 BACK = ONE_WAY + [Connection("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha")]
 RIG = ["Pendulum", "Cart", "CurrentLoop"]
 

@@ -37,7 +37,7 @@ def assert_schema_valid(path: Path, schema_file: str) -> None:
 
 def test_self_locking_rig_has_two_connections(fmu_dir):
     system = rig_system(0.4, fmu_dir)
-    assert [str(c) for c in system.connections] == ["CurrentLoop.I -> Cart.I", "Cart.a -> Pendulum.a"]
+    assert [str(c) for c in system.connections] == ["CurrentLoop.I_mean -> Cart.I", "Cart.a -> Pendulum.a"]
 
 
 def test_back_drivable_rig_has_five_connections(fmu_dir):
@@ -218,7 +218,7 @@ def test_connection_to_unknown_component(written_ssd):
 
 
 def test_connection_from_input_to_input(written_ssd):
-    written_ssd.write_text(written_ssd.read_text().replace('startConnector="I" endElement="Cart"',
+    written_ssd.write_text(written_ssd.read_text().replace('startConnector="I_mean" endElement="Cart"',
                                                            'startConnector="I_c" endElement="Cart"'))
     with pytest.raises(SspError, match="from a connector of kind input to one of kind input"):
         read_ssd(written_ssd)
@@ -272,6 +272,6 @@ def test_invalid_system_is_not_written(fmu_dir, tmp_path):
 def test_input_driven_twice_is_refused(fmu_dir, tmp_path):
     system = rig_system(0.4, fmu_dir)
     system.connections.append(Connection.between("CurrentLoop.I", "Cart.I"))
-    with pytest.raises(SspError, match="already driven by CurrentLoop.I -> Cart.I"):
+    with pytest.raises(SspError, match="already driven by CurrentLoop.I_mean -> Cart.I"):
         write_ssp(system, tmp_path / "rig.ssp")
     assert not (tmp_path / "rig.ssp").exists()

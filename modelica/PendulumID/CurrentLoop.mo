@@ -8,7 +8,8 @@ model CurrentLoop "Current control loop of the DC motor: slope-limited first-ord
   parameter Real I0(unit = "A") = 0.0 "Initial current";
   input Real I_c(unit = "A", start = 0.0) "Command current";
   output Real I(unit = "A") "Motor current, ripple included";
-  Real I_mean(unit = "A", start = I0, fixed = true) "Current without ripple (state of the lag)";
+  output Real I_mean(unit = "A", start = I0, fixed = true)
+    "Current without ripple (state of the lag): what drives the motor's torque";
   Integer mode "Slope limit: -1 falling at -dIdt_max, 0 linear lag, +1 rising at dIdt_max";
   Boolean saturated "The slope limit is active";
 protected

@@ -58,11 +58,12 @@ class StageSimulator:
         return result
 
     def current(self, values: Mapping[str, float]) -> np.ndarray:
-        """The current loop's output I driven by the recorded command (held at samples)."""
+        """The current that drives the cart: the current loop's ripple-free output I_mean,
+        driven by the recorded command (held at samples)."""
         key = tuple(sorted((k, v) for k, v in values.items() if k in COMPONENTS["CurrentLoop"].parameters))
         if self._current_cache is None or self._current_cache[0] != key:
             command = self.experiment.recording.signal("I_c")[self.index]
-            result = self._run("CurrentLoop", values, {"I_c": command}, ["I"], interpolate=False)[:, 0]
+            result = self._run("CurrentLoop", values, {"I_c": command}, ["I_mean"], interpolate=False)[:, 0]
             self._current_cache = (key, result)
         return self._current_cache[1]
 

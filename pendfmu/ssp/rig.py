@@ -19,7 +19,7 @@ SHARED_PARAMETERS = ("m_p", "l")
 # so the cart needs no pendulum inputs (MODEL.md, A(eta)).
 SELF_LOCKING_ETA = 0.5
 
-DRIVE = (("CurrentLoop.I", "Cart.I"), ("Cart.a", "Pendulum.a"))
+DRIVE = (("CurrentLoop.I_mean", "Cart.I"), ("Cart.a", "Pendulum.a"))
 BACK_DRIVE = (("Pendulum.phi", "Cart.phi"), ("Pendulum.w", "Cart.w"), ("Pendulum.alpha", "Cart.alpha"))
 
 

@@ -7,7 +7,7 @@ model CartStartStop "Identification experiment 2: the cart, pendulum removed, st
   PendulumID.Cart cart(m_p = 0) "Cart on the lead screw, pendulum removed";
 equation
   currentLoop.I_c = if time >= t_on and time < t_off then I_on else 0;
-  cart.I = currentLoop.I;
+  cart.I = currentLoop.I_mean;
   cart.phi = pi;
   cart.w = 0;
   cart.alpha = 0;

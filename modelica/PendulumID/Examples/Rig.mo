@@ -11,7 +11,7 @@ model Rig "The three components coupled: current loop -> cart -> pendulum (and b
   PendulumID.Pendulum pendulum(m_p = m_p, l = l) "Pendulum on the cart";
 equation
   currentLoop.I_c = if time >= t_on and time < t_off then I_on else 0;
-  cart.I = currentLoop.I;
+  cart.I = currentLoop.I_mean;
   pendulum.a = cart.a;
   if eta > 0.5 then
     // back-drivable screw: the pendulum's reaction acts on the cart (an algebraic loop)
@@ -31,7 +31,7 @@ equation
 I_c = I_on for t_on &le; t &lt; t_off drives the current loop, whose current drives the
 cart, whose acceleration moves the pendulum's pivot:</p>
 <pre>
-  cart.I = currentLoop.I,   pendulum.a = cart.a
+  cart.I = currentLoop.I_mean,   pendulum.a = cart.a
   eta &gt; 0.5:  cart.phi = pendulum.phi, cart.w = pendulum.w, cart.alpha = pendulum.alpha
 </pre>
 <p>With a self-locking screw (eta &le; 0.5, the paper's rig) the cart does not feel the
