@@ -172,8 +172,9 @@ def _experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]
     fits = []
     for experiment, simulated in zip(residuals.experiments, residuals.simulate(u)):
         recorded = {name: experiment.recorded(name) for name in experiment.stage.fitted}
+        resolution = {name: step for name in recorded if (step := experiment.recording.resolution(name))}
         fits.append(ExperimentFit(experiment.name, experiment.time, recorded,
-                                  {name: simulated[name] for name in recorded}))
+                                  {name: simulated[name] for name in recorded}, resolution))
     return fits
 
 
@@ -308,6 +309,26 @@ def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed:
     return _combine(results, values, groups.get(None, []))
 
 
+def predict(parameters: Mapping[str, float], recordings: Sequence[Recording]) -> dict[str, dict[str, float]]:
+    """Simulate the whole rig for recordings that were not fitted (the coupled and
+    bang-bang experiments) and measure the prediction error of x and phi, in the signal's
+    unit and in sensor steps where the sidecar gives the resolution."""
+    from pendfmu.simulator.rig import simulate_recording
+
+    errors: dict[str, dict[str, float]] = {}
+    for recording in recordings:
+        simulated = simulate_recording(parameters, recording)
+        entry = {}
+        for name in ("x", "phi"):
+            if name in recording.signals:
+                rms = float(np.sqrt(np.mean((simulated[name].to_numpy() - recording.signal(name)) ** 2)))
+                entry[f"{name}_rms"] = rms
+                if recording.resolution(name):
+                    entry[f"{name}_rms_steps"] = rms / recording.resolution(name)
+        errors[recording.path.stem] = entry
+    return errors
+
+
 def _combine(results: list[FitResult], values: dict[str, float], validation: list[Recording]) -> FitResult:
     combined = FitResult(
         "all", values, {k: e for r in results for k, e in r.estimates.items()},
@@ -317,6 +338,7 @@ def _combine(results: list[FitResult], values: dict[str, float], validation: lis
         [e for r in results for e in r.experiments], {k: v for r in results for k, v in r.initial.items()},
         [f"{r.stage}: {n}" for r in results for n in r.notes])
     if validation:
-        combined.notes.append("not fitted (both x and phi: validation recordings): "
+        combined.validation = predict(values, validation)
+        combined.notes.append("predicted, not fitted (recordings with both x and phi): "
                               + ", ".join(r.path.name for r in validation))
     return combined

@@ -46,6 +46,7 @@ class ExperimentFit:
     time: np.ndarray
     recorded: dict[str, np.ndarray]
     simulated: dict[str, np.ndarray]
+    resolution: dict[str, float] = field(default_factory=dict)  # quantization step per recorded signal, if stated
 
 
 @dataclass
@@ -62,6 +63,8 @@ class FitResult:
     experiments: list[ExperimentFit] = field(default_factory=list)
     initial: dict[str, dict[str, float]] = field(default_factory=dict)  # estimated initial states per recording
     notes: list[str] = field(default_factory=list)
+    # recordings not fitted but predicted with the result: name -> {"phi_rms_steps": ..., ...}
+    validation: dict[str, dict[str, float]] = field(default_factory=dict)
 
     @property
     def stderr(self) -> dict[str, float | None]:
@@ -84,7 +87,8 @@ class FitResult:
             "flags": {k: e.flags for k, e in self.estimates.items() if e.flags},
             "initial": self.initial,
             "fit": {"stage": self.stage, "cost": self.cost, "nrmse": self.nrmse, "nfev": self.nfev,
-                    "failures": self.failures, "seconds": self.seconds, "notes": self.notes},
+                    "failures": self.failures, "seconds": self.seconds, "notes": self.notes,
+                    "validation": self.validation},
         }
 
     def write_json(self, path: str | Path) -> Path:

@@ -13,10 +13,10 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-from pendfmu.cli import build, demo, export, rig, simulate
+from pendfmu.cli import build, demo, export, fit, rig, simulate
 from pendfmu.errors import BAD_INPUT_ERRORS, UsageError
 
-SUBCOMMANDS = {"build": build, "demo": demo, "simulate": simulate, "rig": rig, "export": export}
+SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export}
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,0 +1,87 @@
+"""Fit a stage's parameters to recordings (the paper's method), or all stages in order.
+
+    pendfmu fit current|cart|pendulum REC.csv [REC2.csv ...] [--params P.json] --out P2.json
+    pendfmu fit all DIR [--params P.json] --out P2.json
+
+Recordings of one stage are fitted jointly with shared parameters; each recording's
+sidecar fixes its own values (e.g. m_p = 0 for the cart without pendulum). `fit all`
+sorts a folder's recordings by their signals (I_c and I: current; x: cart; phi:
+pendulum; x and phi: predicted with the result, not fitted).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "fit parameters to recordings (stages: current, cart, pendulum, all)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("stage", choices=("current", "cart", "pendulum", "all"))
+    parser.add_argument("recordings", nargs="+", help="recordings (CSV + sidecar, or .mat); for 'all' one folder")
+    parser.add_argument("--params", help="known parameter values, and the start of the fitted ones")
+    parser.add_argument("--out", required=True, help="result: parameters, stderr, ci95, fit statistics (JSON)")
+    parser.add_argument("--report", help="write an HTML report with figures into this folder")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the global search (default 0)")
+    parser.add_argument("--free", nargs="+", default=[], metavar="NAME", help="fit these too")
+    parser.add_argument("--fix", nargs="+", default=[], metavar="NAME", help="keep these at their given values")
+    parser.add_argument("--bounds", nargs="+", default=[], metavar="NAME=LOW:HIGH", help="search bounds")
+    parser.add_argument("--drive", choices=("I_c", "I", "a"), help="the recorded signal that drives the stage")
+    parser.add_argument("--cost", choices=("plain", "quantized"), default="plain",
+                        help="residuals: plain least squares, or zero inside each reading's quantization step")
+    parser.add_argument("--no-global", action="store_true", help="skip the global search (local refinement only)")
+    parser.add_argument("--workers", type=int, default=0, help="processes for the global search (default: cores)")
+
+
+def _bounds(items: list[str]) -> dict[str, tuple[float, float]]:
+    from pendfmu.errors import UsageError
+
+    bounds = {}
+    for item in items:
+        name, _, span = item.partition("=")
+        low, _, high = span.partition(":")
+        try:
+            bounds[name] = (float(low), float(high))
+        except ValueError:
+            raise UsageError(f"--bounds {item!r}: expected NAME=LOW:HIGH with numbers") from None
+        if not bounds[name][0] < bounds[name][1]:
+            raise UsageError(f"--bounds {item!r}: LOW must be below HIGH")
+    return bounds
+
+
+def run(args: argparse.Namespace) -> int:
+    from pendfmu.errors import UsageError
+    from pendfmu.fit import fit, fit_all, fit_current
+    from pendfmu.optimizer import GlobalOptions
+    from pendfmu.parameters import read_parameters
+
+    params = read_parameters(args.params) if args.params else {}
+    options = GlobalOptions(enabled=not args.no_global, workers=args.workers)
+    if args.stage == "all":
+        if len(args.recordings) != 1:
+            raise UsageError("fit all takes one folder of recordings")
+        result = fit_all(args.recordings[0], params, seed=args.seed, cost=args.cost, global_search=options)
+    else:
+        common = dict(seed=args.seed, cost=args.cost, global_search=options, fix=args.fix,
+                      bounds=_bounds(args.bounds), drive=args.drive)
+        if args.stage == "current" and not args.free:
+            result = fit_current(args.recordings, params, **common)
+        else:
+            result = fit(args.stage, args.recordings, params, free=args.free, **common)
+    result.write_json(args.out)
+    print(f"wrote {args.out}: {_summary(result)}")
+    if args.report:
+        print(f"report: {result.write_report(args.report)}")
+    return 0
+
+
+def _summary(result) -> str:
+    parts = []
+    for label, estimate in result.estimates.items():
+        if estimate.stderr is not None:
+            parts.append(f"{label} = {estimate.value:.6g} ± {estimate.stderr:.2g}")
+        elif estimate.ci95 is not None:
+            parts.append(f"{label} in [{estimate.ci95[0]:.4g}, {estimate.ci95[1]:.4g}]")
+        else:
+            parts.append(f"{label} = {estimate.value:.6g} (undetermined)")
+    return "; ".join(parts)

@@ -1,0 +1,51 @@
+"""The `pendfmu fit` command-line contract on small recordings."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from pendfmu.cli import main
+from pendfmu.virtual_rig import Experiment, steps, write_experiments
+
+
+@pytest.fixture(scope="module")
+def current_recording(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cli-fit")
+    experiment = Experiment("steps", "current", 0.012, 20e-6, ("I_c", "I"),
+                            steps((0, 0.0), (1e-3, 2.0), (6e-3, -1.0)))
+    write_experiments(out, {"T_i": 0.5e-3, "dIdt_max": 2000.0, "a_h": 0.0}, seed=4, experiments=[experiment])
+    return out / "steps.csv"
+
+
+def test_fit_writes_the_result_file(current_recording, tmp_path, capsys):
+    out = tmp_path / "fitted.json"
+    assert main(["fit", "current", str(current_recording), "--out", str(out), "--seed", "1"]) == 0
+    result = json.loads(out.read_text())
+    assert result["parameters"]["T_i"] == pytest.approx(0.5e-3, rel=0.03)
+    assert result["parameters"]["dIdt_max"] == pytest.approx(2000.0, rel=0.03)
+    assert "T_i = " in capsys.readouterr().out
+    assert "no PWM ripple found" in " ".join(result["fit"]["notes"])
+
+
+def test_recording_without_the_fitted_signal_is_exit_2(current_recording, tmp_path, capsys):
+    code = main(["fit", "cart", str(current_recording), "--out", str(tmp_path / "o.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and "needs the recorded signal 'x'" in err and "Traceback" not in err
+
+
+def test_unknown_free_parameter_is_exit_2(current_recording, tmp_path, capsys):
+    code = main(["fit", "current", str(current_recording), "--free", "k_fwc", "--out", str(tmp_path / "o.json")])
+    assert code == 2 and "'k_fwc' is not one" in capsys.readouterr().err
+
+
+def test_bad_bounds_are_exit_2(current_recording, tmp_path, capsys):
+    code = main(["fit", "current", str(current_recording), "--bounds", "T_i=1e-3:1e-4", "--out",
+                 str(tmp_path / "o.json")])
+    assert code == 2 and "LOW must be below HIGH" in capsys.readouterr().err
+
+
+def test_fit_all_on_an_empty_folder_is_exit_2(tmp_path, capsys):
+    assert main(["fit", "all", str(tmp_path), "--out", str(tmp_path / "o.json")]) == 2
+    assert "no recordings" in capsys.readouterr().err
