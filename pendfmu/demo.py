@@ -1,6 +1,7 @@
-"""``make demo``: the paper's friction test (Fig. 3) and a pendulum free decay through fmpy.
+"""``make demo``: the paper's friction test (Fig. 3), a pendulum free decay, and the whole
+identification on the virtual rig (record, fit all stages, report, export, predict).
 
-Writes CSV files and PNG plots into an output folder and returns its path.
+Writes CSV files, PNG plots, an HTML report and exported FMUs into an output folder.
 """
 
 from __future__ import annotations
@@ -79,47 +80,59 @@ def _plot_decay(frame: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
-def rig_against_simulation(out: Path) -> list[Path]:
-    """Record the coupled experiments on the virtual rig, simulate them from their
-    recorded command current with the truth parameters, and plot one against the other."""
-    from pendfmu.parameters import read_parameters
+# The demo's rig: worn, with more friction than MODEL.md's reference, which the fit starts from.
+DEMO_TRUTH = {"T_i": 0.4e-3, "dIdt_max": 2300.0, "eta": 0.37, "k_fwc": 36.0, "F_Kc": 9.5, "F_Sc": 14.0,
+              "k_fwp": 1.4e-3, "T_Kp": 2.6e-3, "T_Sp": 5.0e-3, "a_h": 0.02, "f_h": 1900.0, "phase_h": 0.3}
+
+
+def identify(out: Path) -> Path:
+    """The paper's method end to end: record the experiments on the virtual rig, fit the
+    stages in order from the reference values, write the result, its report and the
+    exported FMUs, and plot the unfitted coupled recordings against their prediction."""
+    from pendfmu.fit import fit_all
     from pendfmu.recording import read_recording
     from pendfmu.simulator.rig import simulate_recording
-    from pendfmu.virtual_rig import standard_experiments, write_experiments
+    from pendfmu.virtual_rig import write_experiments
 
     rig_dir = out / "virtual-rig"
-    chosen = [e for e in standard_experiments() if e.name in ("coupled-step", "bangbang-2")]
-    write_experiments(rig_dir, seed=1, experiments=chosen)
-    truth = read_parameters(rig_dir / "truth.json")
-    plots = []
-    for experiment in chosen:
-        recording = read_recording(rig_dir / f"{experiment.name}.csv")
-        simulated = simulate_recording(truth, recording)
-        simulated.to_csv(out / f"{experiment.name}-simulated.csv", index=False, float_format="%.17g")
-        fig, axes = plt.subplots(3, 1, sharex=True, figsize=(8, 7))
-        for axis, name, unit in zip(axes, ("I", "x", "phi"), ("A", "m", "rad")):
-            axis.step(recording.time, recording.signal(name), where="post", lw=0.8, label="recorded (virtual rig)")
-            axis.plot(simulated["time"], simulated[name], lw=0.8, label="simulated (SSP rig, fmpy master)")
-            axis.set_ylabel(f"{name} [{unit}]")
-        axes[0].set_title(f"{experiment.name}: recorded vs simulated with the truth parameters")
+    write_experiments(rig_dir, DEMO_TRUTH, seed=1)
+    result = fit_all(rig_dir, seed=1)
+    result.write_json(out / "identified.json")
+    result.write_report(out / "report")
+    result.export(out / "exported")
+    with open(out / "identified-vs-truth.csv", "w") as table:
+        table.write("parameter,truth,identified,relative_error\n")
+        for name, truth in DEMO_TRUTH.items():
+            value = result.parameters[name]
+            table.write(f"{name},{truth!r},{value!r},{value / truth - 1:.3e}\n")
+    for name in ("coupled-step", "bangbang-2"):
+        recording = read_recording(rig_dir / f"{name}.csv")
+        predicted = simulate_recording(result.parameters, recording)
+        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(8, 5.5))
+        for axis, signal, unit in zip(axes, ("x", "phi"), ("m", "rad")):
+            axis.step(recording.time, recording.signal(signal), where="post", lw=1.6, color="0.7",
+                      label="recorded (virtual rig)")
+            axis.plot(predicted["time"], predicted[signal], lw=0.9, label="predicted by the identified model")
+            axis.set_ylabel(f"{signal} [{unit}]")
+        errors = result.validation.get(name, {})
+        axes[0].set_title(f"{name} (not fitted): phi RMS error {errors.get('phi_rms_steps', float('nan')):.2f} "
+                          f"encoder steps")
         axes[0].legend(loc="lower right")
         axes[-1].set_xlabel("time [s]")
         fig.tight_layout()
-        path = out / f"{experiment.name}.png"
-        fig.savefig(path, dpi=120)
+        fig.savefig(out / f"{name}-predicted.png", dpi=120)
         plt.close(fig)
-        plots.append(path)
-    return plots
+    return out / "report" / "index.html"
 
 
 def run_demo(out: str | Path = "out/demo") -> Path:
     out = Path(out).resolve()
     out.mkdir(parents=True, exist_ok=True)
-    rig_against_simulation(out)
     friction = friction_test()
     friction.to_csv(out / "friction_test.csv", index=False)
     _plot_friction(friction, out / "friction_test.png")
     decay = pendulum_decay()
     decay.to_csv(out / "pendulum_decay.csv", index=False)
     _plot_decay(decay, out / "pendulum_decay.png")
+    identify(out)
     return out

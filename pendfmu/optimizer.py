@@ -100,10 +100,18 @@ def global_search(coarse: Residuals, n: int, seed: int, options: GlobalOptions,
     return result.x, float(result.fun), int(result.nfev), failures
 
 
-def local_search(residuals: Residuals, u0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+LOCAL_BUDGET = 30  # least-squares iterations per (free parameter + 1); each also runs n Jacobian columns
+
+
+def local_search(residuals: Residuals, u0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
+    """Trust-region least squares; returns (u, Jacobian, residual, a note if it did not converge)."""
     result = least_squares(residuals, u0, bounds=(0.0, 1.0), method="trf", diff_step=1e-7,
-                           x_scale=1.0, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200 * (len(u0) + 1))
-    return result.x, result.jac, result.fun, int(result.nfev)
+                           x_scale=1.0, xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=LOCAL_BUDGET * (len(u0) + 1))
+    note = None
+    if result.status == 0:
+        note = (f"the local refinement stopped at its budget of {LOCAL_BUDGET * (len(u0) + 1)} iterations "
+                f"before converging: the estimates may still move")
+    return result.x, result.jac, result.fun, note
 
 
 def optimize(residuals: Residuals, coarse: Residuals | None, u0: np.ndarray, seed: int,
@@ -122,7 +130,9 @@ def optimize(residuals: Residuals, coarse: Residuals | None, u0: np.ndarray, see
     if progress:
         progress("local refinement (least squares)")
     if len(u0):
-        u, jacobian, residual, _ = local_search(residuals, u0)
+        u, jacobian, residual, note = local_search(residuals, u0)
+        if note:
+            messages.append(note)
     else:
         u, residual = u0, residuals(u0)
         jacobian = np.zeros((len(residual), 0))

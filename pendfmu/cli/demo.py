@@ -15,5 +15,5 @@ def run(args: argparse.Namespace) -> int:
     from pendfmu.demo import run_demo
 
     out = run_demo(args.out)
-    print(f"demo results (CSV and PNG) in {out}")
+    print(f"demo results (CSV, PNG, report/index.html, exported FMUs) in {out}")
     return 0
