@@ -71,3 +71,18 @@ def test_a_loop_that_cannot_converge_names_the_loop_and_the_time(iterations, whe
     loop = r"Cart\.a -> Pendulum\.a -> Pendulum\.alpha -> Cart\.alpha -> Cart\.a"
     with pytest.raises(CouplingError, match=rf"algebraic loop {loop} did not converge {when}"):
         cosimulate(0.7, max_iterations=iterations, loop_tolerance=1e-14)
+
+
+@pytest.mark.parametrize("eta", [0.4, 0.7], ids=["self-locking", "back-drivable"])
+@pytest.mark.parametrize("interpolation", ["hold", "linear"])
+def test_native_and_python_masters_agree_to_the_bit(eta, interpolation):
+    """The C loop does the Python master's floating-point operations in the same order."""
+    times = TIMES[:2501]
+    outputs = ["CurrentLoop.I", "Cart.x", "Cart.a", "Pendulum.phi", "Pendulum.alpha"]
+    master = Master.from_system(rig_system(eta, FMUS_DIR, {"eta": eta, **INITIAL}))
+    drive = {"CurrentLoop.I_c": ExternalInput(np.array([0.0, 0.05, 0.3]), np.array([0.0, 1.5, -0.5]), interpolation)}
+    python = master.run(times, outputs, drive, engine="python")
+    python_iterations = master.iterations
+    native = master.run(times, outputs, drive, engine="native")
+    assert np.array_equal(python.to_numpy(), native.to_numpy())
+    assert master.iterations == python_iterations

@@ -45,3 +45,252 @@ long pendfmu_run_single(const Unit *unit, size_t n_points, const double *times,
     }
     return -1;
 }
+
+/* ------------------------------------------------------------------ a whole system
+ *
+ * The co-simulation master of pendfmu/simulator/master.py, step for step: components in
+ * Gauss-Seidel groups; every connected input gets its value at t and its slope towards
+ * t+h; a group whose members feed each other is iterated with FMU-state rollback until
+ * its internal signals reproduce their guesses. The Python master stays the reference:
+ * both do the same floating-point operations in the same order, so they agree to the bit.
+ */
+#include <math.h>
+#include <stdlib.h>
+
+typedef struct {
+    Unit f;
+    fmi2GetFMUstateTYPE *get_state;
+    fmi2SetFMUstateTYPE *set_state;
+    fmi2FreeFMUstateTYPE *free_state;
+} SystemUnit;
+
+typedef struct {
+    int source, target;
+    fmi2ValueReference source_vr, target_vr;
+} Link;
+
+typedef struct {
+    int unit;
+    fmi2ValueReference vr;
+    const double *values; /* at each communication point */
+    const double *slopes; /* over the step that starts there */
+} Drive;
+
+typedef struct {
+    size_t n_units;
+    SystemUnit *units;
+    size_t n_links;
+    const Link *links;
+    size_t n_drives;
+    const Drive *drives;
+    size_t n_groups;
+    const int *group_start; /* n_groups + 1 offsets into group_members */
+    const int *group_members;
+    double tolerance;
+    int max_iterations;
+    size_t n_points;
+    const double *times;
+    const unsigned char *record; /* 1 where outputs are recorded */
+    size_t n_outputs;
+    const int *output_unit;
+    const fmi2ValueReference *output_vr;
+    double *outputs;
+    /* results */
+    long iterations;
+    double fail_time;
+    int fail_kind; /* 0 none, 1 fmi2 call failed, 2 a coupled step did not converge, 3 out of memory,
+                      4 the connected signals are not consistent at the start */
+    int fail_unit;
+    double last_change;
+} System;
+
+#define MAX_SIGNALS 256
+#define MAX_PORTS 64
+
+static int in_group(const System *s, size_t g, int unit) {
+    for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
+        if (s->group_members[m] == unit) return 1;
+    return 0;
+}
+
+static int get_one(const System *s, int unit, fmi2ValueReference vr, double *value) {
+    const Unit *u = &s->units[unit].f;
+    return u->get_real(u->component, &vr, 1, value) <= fmi2Warning;
+}
+
+/* Set every input of `unit` at the step's start, with slopes towards `end`. */
+static int set_inputs(const System *s, int unit, size_t k, const double *start, const double *end, double h) {
+    fmi2ValueReference vrs[MAX_PORTS];
+    double values[MAX_PORTS], slopes[MAX_PORTS];
+    fmi2Integer orders[MAX_PORTS];
+    size_t n = 0;
+    int any_slope = 0;
+    for (size_t d = 0; d < s->n_drives; d++) {
+        if (s->drives[d].unit != unit || n >= MAX_PORTS) continue;
+        vrs[n] = s->drives[d].vr;
+        values[n] = s->drives[d].values[k];
+        slopes[n] = h > 0 ? s->drives[d].slopes[k] : 0.0;
+        any_slope |= slopes[n] != 0.0;
+        n++;
+    }
+    for (size_t l = 0; l < s->n_links; l++) {
+        if (s->links[l].target != unit || n >= MAX_PORTS) continue;
+        vrs[n] = s->links[l].target_vr;
+        values[n] = start[l];
+        slopes[n] = h > 0 ? (end[l] - start[l]) / h : 0.0;
+        any_slope |= slopes[n] != 0.0;
+        n++;
+    }
+    if (!n) return 1;
+    const Unit *u = &s->units[unit].f;
+    if (u->set_real(u->component, vrs, n, values) > fmi2Warning) return 0;
+    if (h > 0 && any_slope) {
+        for (size_t j = 0; j < n; j++) orders[j] = 1;
+        if (u->set_input_derivatives(u->component, vrs, n, orders, slopes) > fmi2Warning) return 0;
+    }
+    return 1;
+}
+
+static int fail(System *s, int kind, int unit, double t) {
+    s->fail_kind = kind;
+    s->fail_unit = unit;
+    s->fail_time = t;
+    return 0;
+}
+
+static int do_step(System *s, int unit, double t, double h) {
+    const Unit *u = &s->units[unit].f;
+    if (u->do_step(u->component, t, h, fmi2True) > fmi2Warning) return fail(s, 1, unit, t);
+    return 1;
+}
+
+/* Update the signals of every link whose source is in group g. */
+static int publish(System *s, size_t g, double *signal, double t) {
+    for (size_t l = 0; l < s->n_links; l++)
+        if (in_group(s, g, s->links[l].source) && !get_one(s, s->links[l].source, s->links[l].source_vr, &signal[l]))
+            return fail(s, 1, s->links[l].source, t);
+    return 1;
+}
+
+static int solve_point(System *s, double *signal, double t) {
+    for (int it = 0; it < s->max_iterations; it++) {
+        double change = 0.0;
+        for (size_t l = 0; l < s->n_links; l++) {
+            double value;
+            const Link *link = &s->links[l];
+            if (!get_one(s, link->source, link->source_vr, &value)) return fail(s, 1, link->source, t);
+            change = fmax(change, fabs(value - signal[l]) / (1.0 + fabs(value)));
+            signal[l] = value;
+            const Unit *u = &s->units[link->target].f;
+            if (u->set_real(u->component, &link->target_vr, 1, &value) > fmi2Warning)
+                return fail(s, 1, link->target, t);
+        }
+        s->last_change = change;
+        if (change <= s->tolerance) return 1;
+    }
+    return fail(s, 4, -1, t);
+}
+
+static int coupled_step(System *s, size_t g, size_t k, double *start, double *signal, double *guess,
+                        double *previous_end, unsigned char *has_previous, fmi2FMUstate *saved, double t, double h) {
+    double ends[MAX_SIGNALS];
+    int internal[MAX_SIGNALS];
+    for (size_t l = 0; l < s->n_links; l++) {
+        internal[l] = in_group(s, g, s->links[l].source) && in_group(s, g, s->links[l].target);
+        guess[l] = internal[l] ? (has_previous[l] ? previous_end[l] : start[l]) : signal[l];
+    }
+    for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
+        SystemUnit *u = &s->units[s->group_members[m]];
+        if (u->get_state(u->f.component, &saved[s->group_members[m]]) > fmi2Warning)
+            return fail(s, 1, s->group_members[m], t);
+    }
+    double change = 0.0;
+    for (int it = 0; it < s->max_iterations; it++) {
+        s->iterations++;
+        for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
+            if (!set_inputs(s, s->group_members[m], k, start, guess, h)) return fail(s, 1, s->group_members[m], t);
+        for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
+            if (!do_step(s, s->group_members[m], t, h)) return 0;
+        change = 0.0;
+        for (size_t l = 0; l < s->n_links; l++) {
+            if (!internal[l]) continue;
+            if (!get_one(s, s->links[l].source, s->links[l].source_vr, &ends[l])) return fail(s, 1, s->links[l].source, t);
+            change = fmax(change, fabs(ends[l] - guess[l]) / (1.0 + fabs(ends[l])));
+        }
+        s->last_change = change;
+        if (change <= s->tolerance) {
+            for (size_t l = 0; l < s->n_links; l++)
+                if (internal[l]) {
+                    previous_end[l] = 2 * ends[l] - start[l];
+                    has_previous[l] = 1;
+                }
+            return publish(s, g, signal, t);
+        }
+        for (size_t l = 0; l < s->n_links; l++)
+            if (internal[l]) guess[l] = ends[l];
+        for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
+            SystemUnit *u = &s->units[s->group_members[m]];
+            if (u->set_state(u->f.component, saved[s->group_members[m]]) > fmi2Warning)
+                return fail(s, 1, s->group_members[m], t);
+        }
+    }
+    return fail(s, 2, -1, t);
+}
+
+static int record_outputs(System *s, size_t row) {
+    for (size_t j = 0; j < s->n_outputs; j++)
+        if (!get_one(s, s->output_unit[j], s->output_vr[j], &s->outputs[row * s->n_outputs + j]))
+            return fail(s, 1, s->output_unit[j], 0.0);
+    return 1;
+}
+
+static int run_system(System *s, double *signal, double *start, double *guess, double *previous_end,
+                      unsigned char *has_previous, fmi2FMUstate *saved) {
+    size_t row = 0;
+    const double t0 = s->times[0];
+    for (size_t unit = 0; unit < s->n_units; unit++)
+        if (!set_inputs(s, (int)unit, 0, signal, signal, 0.0)) return fail(s, 1, (int)unit, t0);
+    if (!solve_point(s, signal, t0)) return 0;
+    if (s->record[0] && !record_outputs(s, row++)) return 0;
+    for (size_t k = 0; k + 1 < s->n_points; k++) {
+        const double t = s->times[k], h = s->times[k + 1] - s->times[k];
+        for (size_t l = 0; l < s->n_links; l++) start[l] = signal[l];
+        for (size_t g = 0; g < s->n_groups; g++) {
+            int coupled = 0;
+            for (size_t l = 0; l < s->n_links; l++)
+                coupled |= in_group(s, g, s->links[l].source) && in_group(s, g, s->links[l].target);
+            if (coupled) {
+                if (!coupled_step(s, g, k, start, signal, guess, previous_end, has_previous, saved, t, h)) return 0;
+            } else {
+                const int unit = s->group_members[s->group_start[g]];
+                if (!set_inputs(s, unit, k, start, signal, h)) return fail(s, 1, unit, t);
+                if (!do_step(s, unit, t, h) || !publish(s, g, signal, t)) return 0;
+            }
+        }
+        if (s->record[k + 1] && !record_outputs(s, row++)) return 0;
+    }
+    return 1;
+}
+
+__attribute__((visibility("default")))
+int pendfmu_run_system(System *s) {
+    s->iterations = 0;
+    s->fail_kind = 0;
+    s->fail_unit = -1;
+    if (s->n_links > MAX_SIGNALS) return fail(s, 3, -1, s->times[0]);
+    double *signal = calloc(4 * s->n_links + 1, sizeof(double));
+    unsigned char *has_previous = calloc(s->n_links + 1, 1);
+    fmi2FMUstate *saved = calloc(s->n_units, sizeof(fmi2FMUstate));
+    int ok = 0;
+    if (signal && has_previous && saved)
+        ok = run_system(s, signal, signal + s->n_links, signal + 2 * s->n_links, signal + 3 * s->n_links,
+                        has_previous, saved);
+    else
+        fail(s, 3, -1, s->times[0]);
+    for (size_t unit = 0; saved && unit < s->n_units; unit++)
+        if (saved[unit]) s->units[unit].free_state(s->units[unit].f.component, &saved[unit]);
+    free(signal);
+    free(has_previous);
+    free(saved);
+    return ok;
+}

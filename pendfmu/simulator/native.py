@@ -44,7 +44,7 @@ def library() -> ctypes.CDLL:
         BUILD_DIR.mkdir(parents=True, exist_ok=True)
         partial = path.with_name(f".{path.name}.{os.getpid()}")
         command = [os.environ.get("CC", "gcc"), *CFLAGS, "-shared", "-I", str(FMI_HEADERS), str(SOURCE),
-                   "-o", str(partial)]
+                   "-o", str(partial), "-lm"]
         done = subprocess.run(command, capture_output=True, text=True)
         if done.returncode != 0:
             raise BuildError(f"compiling {SOURCE} failed:\n{done.stderr}")
@@ -56,7 +56,72 @@ def library() -> ctypes.CDLL:
         ctypes.c_size_t, ctypes.POINTER(ctypes.c_uint), ctypes.POINTER(ctypes.c_double),
         ctypes.POINTER(ctypes.c_double), ctypes.c_size_t, ctypes.POINTER(ctypes.c_uint),
         ctypes.POINTER(ctypes.c_double)]
+    lib.pendfmu_run_system.restype = ctypes.c_int
+    lib.pendfmu_run_system.argtypes = [ctypes.POINTER(System)]
     return lib
+
+
+class SystemUnit(ctypes.Structure):
+    _fields_ = [("f", Unit), ("get_state", ctypes.c_void_p), ("set_state", ctypes.c_void_p),
+                ("free_state", ctypes.c_void_p)]
+
+
+class Link(ctypes.Structure):
+    _fields_ = [("source", ctypes.c_int), ("target", ctypes.c_int), ("source_vr", ctypes.c_uint),
+                ("target_vr", ctypes.c_uint)]
+
+
+class Drive(ctypes.Structure):
+    _fields_ = [("unit", ctypes.c_int), ("vr", ctypes.c_uint), ("values", ctypes.POINTER(ctypes.c_double)),
+                ("slopes", ctypes.POINTER(ctypes.c_double))]
+
+
+class System(ctypes.Structure):
+    _fields_ = [("n_units", ctypes.c_size_t), ("units", ctypes.POINTER(SystemUnit)),
+                ("n_links", ctypes.c_size_t), ("links", ctypes.POINTER(Link)),
+                ("n_drives", ctypes.c_size_t), ("drives", ctypes.POINTER(Drive)),
+                ("n_groups", ctypes.c_size_t), ("group_start", ctypes.POINTER(ctypes.c_int)),
+                ("group_members", ctypes.POINTER(ctypes.c_int)),
+                ("tolerance", ctypes.c_double), ("max_iterations", ctypes.c_int),
+                ("n_points", ctypes.c_size_t), ("times", ctypes.POINTER(ctypes.c_double)),
+                ("record", ctypes.POINTER(ctypes.c_ubyte)),
+                ("n_outputs", ctypes.c_size_t), ("output_unit", ctypes.POINTER(ctypes.c_int)),
+                ("output_vr", ctypes.POINTER(ctypes.c_uint)), ("outputs", ctypes.POINTER(ctypes.c_double)),
+                ("iterations", ctypes.c_long), ("fail_time", ctypes.c_double), ("fail_kind", ctypes.c_int),
+                ("fail_unit", ctypes.c_int), ("last_change", ctypes.c_double)]
+
+
+def system_unit_of(slave) -> SystemUnit:
+    address = lambda function: ctypes.cast(function, ctypes.c_void_p).value  # noqa: E731
+    return SystemUnit(unit_of(slave), address(slave.dll.fmi2GetFMUstate), address(slave.dll.fmi2SetFMUstate),
+                      address(slave.dll.fmi2FreeFMUstate))
+
+
+def _array(kind, values):
+    return (kind * max(len(values), 1))(*values)
+
+
+def run_system(slaves: list, links: list[tuple[int, int, int, int]], drives: list[tuple[int, int, np.ndarray,
+               np.ndarray]], groups: list[list[int]], times: np.ndarray, record: np.ndarray,
+               outputs: list[tuple[int, int]], tolerance: float, max_iterations: int) -> tuple[np.ndarray, System]:
+    """Run the master's loop natively; returns (recorded outputs, the System with diagnostics)."""
+    times = np.ascontiguousarray(times, dtype=float)
+    record = np.ascontiguousarray(record, dtype=np.uint8)
+    result = np.empty((int(record.sum()), len(outputs)))
+    keep = [np.ascontiguousarray(v, dtype=float) for _, _, values, slopes in drives for v in (values, slopes)]
+    starts = np.cumsum([0] + [len(g) for g in groups])
+    system = System(
+        len(slaves), _array(SystemUnit, [system_unit_of(s) for s in slaves]),
+        len(links), _array(Link, [Link(*link) for link in links]),
+        len(drives), _array(Drive, [Drive(unit, vr, _doubles(keep[2 * j]), _doubles(keep[2 * j + 1]))
+                                    for j, (unit, vr, _, _) in enumerate(drives)]),
+        len(groups), _array(ctypes.c_int, [int(x) for x in starts]),
+        _array(ctypes.c_int, [m for g in groups for m in g]), tolerance, max_iterations,
+        len(times), _doubles(times), record.ctypes.data_as(ctypes.POINTER(ctypes.c_ubyte)),
+        len(outputs), _array(ctypes.c_int, [u for u, _ in outputs]), _array(ctypes.c_uint, [v for _, v in outputs]),
+        _doubles(result), 0, 0.0, 0, -1, 0.0)
+    library().pendfmu_run_system(ctypes.byref(system))
+    return result, system
 
 
 def unit_of(slave) -> Unit:
