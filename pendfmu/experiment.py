@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -80,7 +81,8 @@ class Experiment:
 
     @property
     def name(self) -> str:
-        return self.recording.path.stem
+        path = self.recording.path
+        return Path(path).stem if path else "recording"
 
     @property
     def time(self) -> np.ndarray:

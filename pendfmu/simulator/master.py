@@ -59,6 +59,18 @@ class ExternalInput:
             return start, 0.0
         return start, (self.value(t + h) - start) / h
 
+    def values_and_slopes(self, t: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """value_and_slope for arrays of steps: the same operations, vectorized."""
+        if self.interpolation == "linear":
+            start = np.interp(t, self.times, self.values)
+            positive = h > 0
+            slopes = np.zeros_like(start)
+            slopes[positive] = (np.interp(t[positive] + h[positive], self.times, self.values) - start[positive]) \
+                / h[positive]
+            return start, slopes
+        index = np.maximum(np.searchsorted(self.times, t, side="right") - 1, 0)
+        return self.values[index].astype(float), np.zeros(len(t))
+
 
 def feedthrough_of(component_type: str, fmu: str | Path | None = None) -> dict[str, set[str]]:
     """output -> inputs it depends on directly, from the FMU's ModelStructure."""
@@ -141,15 +153,34 @@ class Master:
         external = dict(external or {})
         for key in external:
             self._split(key)
-        fmus = {name: ComponentFMU(kind, self.parameters[name], start_time=float(times[0]),
-                                   fmu=self.fmus.get(name), instance=name)
-                for name, kind in self.types.items()}
+        fmus = self._instances(float(times[0]))
         try:
             run = self._run_native if engine == "native" else self._run
             return run(fmus, times, [self._split(o) for o in outputs], external, list(outputs))
-        finally:
-            for fmu in fmus.values():
-                fmu.free()
+        except BaseException:
+            self.close()  # an instance in error is not reused
+            raise
+
+    def _instances(self, start_time: float) -> dict[str, ComponentFMU]:
+        """The system's FMU instances, made once and reset and re-initialized per run: a
+        fit runs the same system thousands of times."""
+        if not getattr(self, "_fmus", None):
+            self._fmus = {name: ComponentFMU(kind, self.parameters[name], start_time=start_time,
+                                             fmu=self.fmus.get(name), instance=name)
+                          for name, kind in self.types.items()}
+        else:
+            for name, fmu in self._fmus.items():
+                fmu.restart(self.parameters[name], start_time)
+        return self._fmus
+
+    def close(self) -> None:
+        """Free the FMU instances (also done when the master is garbage-collected)."""
+        for fmu in getattr(self, "_fmus", {}).values():
+            fmu.free()
+        self._fmus = {}
+
+    def __del__(self) -> None:
+        self.close()
 
     def _split(self, qualified: str) -> tuple[str, str]:
         name, _, variable = qualified.partition(".")
@@ -165,26 +196,32 @@ class Master:
         t = float(times[0])
         self._set_inputs(fmus, external, signals, signals, t, 0.0)
         self._solve_point(fmus, signals, external, t)
+        grid, samples = self._grid(times)
         record = np.empty((len(times), len(outputs)))
         record[0] = [self._get(fmus[n], v) for n, v in outputs]
-        for k in range(1, len(times)):
-            n_steps = max(1, int(np.ceil((times[k] - times[k - 1]) / self.step * (1 - 1e-12))))
-            points = np.linspace(times[k - 1], times[k], n_steps + 1)
-            for a, b in zip(points[:-1], points[1:]):
-                self._interval(fmus, signals, external, float(a), float(b) - float(a))
-                for fmu in fmus.values():
-                    fmu.time = float(b)
-            record[k] = [self._get(fmus[n], v) for n, v in outputs]
+        row = 1
+        for k in range(len(grid) - 1):
+            a, b = float(grid[k]), float(grid[k + 1])
+            self._interval(fmus, signals, external, a, b - a)
+            for fmu in fmus.values():
+                fmu.time = b
+            if samples[k + 1]:
+                record[row] = [self._get(fmus[n], v) for n, v in outputs]
+                row += 1
         return pd.DataFrame({"time": times, **{label: record[:, j] for j, label in enumerate(labels)}})
 
     def _grid(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Communication points (each sample interval split as in _run) and which are samples."""
+        """Communication points, each sample interval split evenly into steps no longer
+        than the communication step, and a flag for the points that are samples."""
+        # 1e-9: sample times like k * 2e-4 differ from the step by rounding, not by design
+        n_steps = np.maximum(1, np.ceil(np.diff(times) / self.step - 1e-9).astype(int))
+        if np.all(n_steps == 1):
+            return times.astype(float), np.ones(len(times), bool)
         points, record = [np.array([times[0]])], [np.array([True])]
         for k in range(1, len(times)):
-            n_steps = max(1, int(np.ceil((times[k] - times[k - 1]) / self.step * (1 - 1e-12))))
-            inner = np.linspace(times[k - 1], times[k], n_steps + 1)[1:]
-            points.append(inner)
-            record.append(np.arange(1, n_steps + 1) == n_steps)
+            n = int(n_steps[k - 1])
+            points.append(np.linspace(times[k - 1], times[k], n + 1)[1:] if n > 1 else times[k:k + 1])
+            record.append(np.arange(1, n + 1) == n)
         return np.concatenate(points), np.concatenate(record)
 
     def _run_native(self, fmus, times, outputs, external, labels) -> pd.DataFrame:
@@ -192,14 +229,13 @@ class Master:
 
         names = list(self.types)
         index = {name: k for k, name in enumerate(names)}
+        external = {self._split(k): v for k, v in external.items()}
         grid, record = self._grid(times)
         steps = np.append(np.diff(grid), 0.0)
         drives = []
-        for key, signal in external.items():
-            name, variable = self._split(key)
-            pairs = [signal.value_and_slope(float(t), float(h)) for t, h in zip(grid, steps)]
-            drives.append((index[name], fmus[name].vr[variable], np.array([v for v, _ in pairs]),
-                           np.array([s for _, s in pairs])))
+        for (name, variable), signal in external.items():
+            values, slopes = signal.values_and_slopes(grid, steps)
+            drives.append((index[name], fmus[name].vr[variable], values, slopes))
         links = [(index[c.source], index[c.target], fmus[c.source].vr[c.output], fmus[c.target].vr[c.input])
                  for c in self.connections]
         groups = [[index[name] for name in group] for group in self.order]

@@ -1,0 +1,196 @@
+"""Speed of co-simulation and fitting, as ratios measured in one run (issue 6).
+
+Co-simulation: the same FMUs and the same 10 s rig experiment (a current step, self-locking
+screw) at 0.2 ms communication steps, stepped by
+  (a) a plain fmpy FMU2Slave loop in Python (the usual way to drive FMUs),
+  (b) pendfmu's master, native and Python engines,
+  (c) the plainest C loop over the same binaries (scripts/bench_limit.c): the limit.
+Fitting: `fit all` on the standard virtual-rig set, and the current stage against a naive
+fit that calls fmpy.simulate_fmu inside scipy's least_squares.
+Also the cost's growth with recording length (1x, 2x, 4x).
+
+    python scripts/bench.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pendfmu.fmubuild.compiler import CFLAGS, FMI_HEADERS
+from pendfmu.simulator.component import ComponentFMU
+from pendfmu.simulator.master import ExternalInput, Master
+from pendfmu.simulator.native import unit_of
+from pendfmu.ssp import rig_system
+from pendfmu.fmubuild.compiler import FMUS_DIR
+
+STEP = 2e-4
+COMMAND = 1.5
+
+
+def timed(function, *args, **kwargs):
+    start = time.perf_counter()
+    value = function(*args, **kwargs)
+    return time.perf_counter() - start, value
+
+
+def plain_fmpy_loop(seconds: float) -> float:
+    """What a user writes with fmpy: set, step, get, copy, for every FMU and step."""
+    fmus = {name: ComponentFMU(name) for name in ("CurrentLoop", "Cart", "Pendulum")}
+    loop, cart, pendulum = (fmus[n].slave for n in ("CurrentLoop", "Cart", "Pendulum"))
+    vr = {n: fmus[n].vr for n in fmus}
+    t = 0.0
+    for k in range(int(round(seconds / STEP))):
+        t = k * STEP
+        loop.setReal([vr["CurrentLoop"]["I_c"]], [COMMAND])
+        loop.doStep(t, STEP)
+        current = loop.getReal([vr["CurrentLoop"]["I_mean"]])[0]
+        cart.setReal([vr["Cart"]["I"]], [current])
+        cart.doStep(t, STEP)
+        acceleration = cart.getReal([vr["Cart"]["a"]])[0]
+        pendulum.setReal([vr["Pendulum"]["a"]], [acceleration])
+        pendulum.doStep(t, STEP)
+    phi = pendulum.getReal([vr["Pendulum"]["phi"]])[0]
+    for fmu in fmus.values():
+        fmu.free()
+    return phi
+
+
+MASTER = {}
+
+
+def master_run(seconds: float, engine: str) -> float:
+    """One run of the rig by pendfmu's master; the master (and its FMU instances) is kept
+    between calls, as a fit keeps it."""
+    if engine not in MASTER:
+        MASTER[engine] = Master.from_system(rig_system(0.4, FMUS_DIR, {}))
+    times = np.arange(int(round(seconds / STEP)) + 1) * STEP
+    frame = MASTER[engine].run(times, ["Pendulum.phi"], {"CurrentLoop.I_c": ExternalInput([0.0], [COMMAND])},
+                               engine=engine)
+    return float(frame["Pendulum.phi"].iloc[-1])
+
+
+def c_limit(seconds: float, library: ctypes.CDLL) -> float:
+    fmus = {name: ComponentFMU(name) for name in ("CurrentLoop", "Cart", "Pendulum")}
+    packed = [unit_of(fmus[n].slave) for n in ("CurrentLoop", "Cart", "Pendulum")]
+    array = (type(packed[0]) * 3)(*packed)
+    vrs = [fmus["CurrentLoop"].vr["I_c"], fmus["CurrentLoop"].vr["I_mean"], fmus["Cart"].vr["I"], fmus["Cart"].vr["a"],
+           fmus["Pendulum"].vr["a"], fmus["Pendulum"].vr["phi"]]
+    last = ctypes.c_double()
+    start = time.perf_counter()
+    library.bench_limit(array, (ctypes.c_uint * 6)(*vrs), int(round(seconds / STEP)), ctypes.c_double(STEP),
+                        ctypes.c_double(COMMAND), ctypes.byref(last))
+    elapsed = time.perf_counter() - start
+    for fmu in fmus.values():
+        fmu.free()
+    return elapsed, last.value
+
+
+def build_limit(directory: Path) -> ctypes.CDLL:
+    source = Path(__file__).with_name("bench_limit.c")
+    library = directory / "bench_limit.so"
+    subprocess.run(["gcc", *[f for f in CFLAGS if f != "-fvisibility=hidden"], "-shared", "-I", str(FMI_HEADERS),
+                    str(source), "-o", str(library)], check=True)
+    from pendfmu.simulator.native import Unit
+
+    lib = ctypes.CDLL(str(library))
+    lib.bench_limit.restype = ctypes.c_int
+    lib.bench_limit.argtypes = [ctypes.POINTER(Unit), ctypes.POINTER(ctypes.c_uint), ctypes.c_size_t,
+                                ctypes.c_double, ctypes.c_double, ctypes.POINTER(ctypes.c_double)]
+    return lib
+
+
+def cosimulation(seconds: float) -> None:
+    print(f"co-simulation of the rig, {seconds:g} s at {STEP * 1e3:g} ms (3 FMUs, {seconds / STEP:.0f} steps):")
+    with tempfile.TemporaryDirectory() as tmp:
+        library = build_limit(Path(tmp))
+        plain, phi_a = timed(plain_fmpy_loop, seconds)
+        python, _ = timed(master_run, seconds, "python")
+        cold, _ = timed(master_run, seconds, "native")
+        native, phi_b = timed(master_run, seconds, "native")
+        limit, phi_c = c_limit(seconds, library)
+    print(f"  (a) plain fmpy loop      {plain:8.3f} s")
+    print(f"  (b) pendfmu master, python {python:6.3f} s   native {native:.3f} s "
+          f"(first run, with instantiation: {cold:.3f} s)")
+    print(f"  (c) C loop (limit)       {limit:8.3f} s")
+    print(f"  native master vs plain fmpy loop: {plain / native:6.1f}x faster")
+    print(f"  native master vs C limit:         {native / limit:6.2f}x slower")
+    print(f"  (same result: phi {phi_a:.6f} / {phi_b:.6f} / {phi_c:.6f}; (b) interpolates inputs, (a) and (c) hold)")
+
+
+def scaling() -> None:
+    print("cost against recording length (native master, rig):")
+    base = None
+    for factor in (1, 2, 4):
+        elapsed, _ = timed(master_run, 2.5 * factor, "native")
+        base = base or elapsed
+        print(f"  {factor}x ({2.5 * factor:g} s): {elapsed:.3f} s  ratio {elapsed / base:.2f}")
+
+
+def naive_current_fit(path: Path, start: dict[str, float]) -> tuple[float, int, dict[str, float]]:
+    """least_squares over fmpy.simulate_fmu, as one would write it without pendfmu."""
+    from fmpy import simulate_fmu
+    from scipy.optimize import least_squares
+
+    from pendfmu.fmubuild import ensure_fmu
+    from pendfmu.recording import read_recording
+
+    recording = read_recording(path)
+    fmu = str(ensure_fmu("CurrentLoop"))
+    signal = np.array(list(zip(recording.time, recording.signal("I_c"))), dtype=[("time", float), ("I_c", float)])
+    step = float(np.diff(recording.time).mean())
+    calls = [0]
+
+    def residual(log_values):
+        calls[0] += 1
+        values = dict(zip(("T_i", "dIdt_max"), np.exp(log_values)))
+        result = simulate_fmu(fmu, start_values=values, input=signal, output=["I"], stop_time=recording.time[-1],
+                              output_interval=step, fmi_type="CoSimulation")
+        simulated = np.interp(recording.time, result["time"], result["I"])
+        return simulated - recording.signal("I")
+
+    elapsed, result = timed(least_squares, residual, np.log([start["T_i"], start["dIdt_max"]]), method="trf")
+    return elapsed, calls[0], dict(zip(("T_i", "dIdt_max"), np.exp(result.x)))
+
+
+def fitting(quick: bool) -> None:
+    from pendfmu.fit import fit, fit_all
+    from pendfmu.optimizer import GlobalOptions
+    from pendfmu.virtual_rig import write_experiments
+
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        write_experiments(folder, seed=1)
+        start = {"T_i": 0.6e-3, "dIdt_max": 1800.0}
+        naive, calls, values = naive_current_fit(folder / "current-steps.csv", start)
+        ours, result = timed(fit, "current", [folder / "current-steps.csv"], start,
+                             global_search=GlobalOptions(enabled=False), progress=False)
+        print("current stage, local fit from the same start:")
+        print(f"  naive (simulate_fmu in least_squares): {naive:6.2f} s, {calls} simulations")
+        print(f"  pendfmu:                               {ours:6.2f} s, {result.nfev} simulations "
+              f"-> {naive / ours:.1f}x faster ({naive / calls / (ours / result.nfev):.1f}x per simulation)")
+        if not quick:
+            wall, result = timed(fit_all, folder, seed=1, progress=False)
+            print(f"fit all on the standard set: {wall:.1f} s wall, {result.nfev} simulations, "
+                  f"{result.failures} failed")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="skip the full fit-all timing")
+    args = parser.parse_args()
+    print(f"python {sys.version.split()[0]}; one run, on this machine now")
+    cosimulation(10.0)
+    scaling()
+    fitting(args.quick)
+
+
+if __name__ == "__main__":
+    main()
