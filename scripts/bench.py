@@ -161,7 +161,7 @@ def naive_current_fit(path: Path, start: dict[str, float]) -> tuple[float, int, 
 
 
 def fitting(quick: bool) -> None:
-    from pendfmu.fit import fit, fit_all
+    from pendfmu.identification import fit, fit_all
     from pendfmu.optimizer import GlobalOptions
     from pendfmu.virtual_rig import write_experiments
 

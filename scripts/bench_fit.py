@@ -13,7 +13,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from pendfmu.fit import fit_all
+from pendfmu.identification import fit_all
 from pendfmu.optimizer import GlobalOptions
 from pendfmu.virtual_rig import write_experiments
 

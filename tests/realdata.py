@@ -37,7 +37,7 @@ from scipy.optimize import least_squares, minimize
 from scipy.signal import medfilt, savgol_filter
 from scipy.stats import trim_mean
 
-from pendfmu.fit import fit
+from pendfmu.identification import fit
 from pendfmu.optimizer import GlobalOptions
 from pendfmu.recording import Recording, RecordingError, SignalInfo, quantize
 from pendfmu.result import FitResult

@@ -15,7 +15,7 @@ from html.parser import HTMLParser
 import numpy as np
 import pytest
 
-from pendfmu.fit import fit
+from pendfmu.identification import fit
 from pendfmu.report import write_report
 from pendfmu.report.content import JOINTS
 from pendfmu.report.figures import friction_figure

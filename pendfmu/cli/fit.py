@@ -51,7 +51,7 @@ def _bounds(items: list[str]) -> dict[str, tuple[float, float]]:
 
 def run(args: argparse.Namespace) -> int:
     from pendfmu.errors import UsageError
-    from pendfmu.fit import fit, fit_all, fit_current
+    from pendfmu.identification import fit, fit_all, fit_current
     from pendfmu.optimizer import GlobalOptions
     from pendfmu.parameters import read_parameters
 
