@@ -75,12 +75,7 @@ class ComponentFMU:
         self.slave = FMU2Slave(guid=md.guid, unzipDirectory=str(directory), modelIdentifier=kind,
                                instanceName=self.name)
         self._call(self.slave.instantiate, callbacks=self._callbacks, loggingOn=log_events)
-        self._call(self.slave.setupExperiment, startTime=start_time)
-        self._call(self.slave.enterInitializationMode)
-        if parameters:
-            self.set_parameters(parameters)
-        self._call(self.slave.exitInitializationMode)
-        self.time = start_time
+        self._initialize(parameters, start_time)
 
     # -- plumbing
 
@@ -112,15 +107,18 @@ class ComponentFMU:
                                  f"known: {', '.join(self.vr)}")
         return [self.vr[n] for n in names]
 
-    def restart(self, parameters: Mapping[str, float], start_time: float = 0.0) -> None:
-        """Reset and initialize again with new parameter values (cheaper than a new instance)."""
-        self._call(self.slave.reset)
+    def _initialize(self, parameters: Mapping[str, float] | None, start_time: float) -> None:
         self._call(self.slave.setupExperiment, startTime=start_time)
         self._call(self.slave.enterInitializationMode)
         if parameters:
             self.set_parameters(parameters)
         self._call(self.slave.exitInitializationMode)
         self.time = start_time
+
+    def restart(self, parameters: Mapping[str, float], start_time: float = 0.0) -> None:
+        """Reset and initialize again with new parameter values (cheaper than a new instance)."""
+        self._call(self.slave.reset)
+        self._initialize(parameters, start_time)
 
     # -- values
 
