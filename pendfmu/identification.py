@@ -23,6 +23,7 @@ from pendfmu.optimizer import GlobalOptions, optimize
 from pendfmu.parameters import ParameterFileError, check_parameters
 from pendfmu.recording import Recording, RecordingError, read_recording
 from pendfmu.residuals import FreeParameter, Residuals, physical, unit_of
+from pendfmu.simulator.component import FMUError
 from pendfmu.result import Estimate, ExperimentFit, FitResult, estimate_uncertainty, nrmse
 
 # name: (low, high, logarithmic). Physical ranges wide enough for any lab rig.
@@ -154,7 +155,11 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
         if stage == "pendulum" and "T_Sp" in fitted:
             notes += _bound_stiction(residuals, outcome.u, free_parameters, estimates, fitted)
         final_values = [fitted.get(p.name, v) if p.experiment is None else v for p, v in zip(free_parameters, found)]
-        fits = _experiment_fits(residuals, unit_of(free_parameters, final_values))
+        try:
+            fits = _experiment_fits(residuals, unit_of(free_parameters, final_values))
+        except FMUError as error:
+            fits = []
+            notes.append(f"the simulation at the result fails ({error}): no fit statistics")
     finally:
         bar.close()
         residuals.close()
