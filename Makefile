@@ -6,7 +6,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test fmus clean
+.PHONY: demo test fmus tools clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || { echo "pendfmu needs Python >= 3.11: run make PYTHON=/path/to/python3.11" >&2; exit 2; }
@@ -20,8 +20,13 @@ fmus: $(STAMP)
 demo: fmus
 	$(PY) -m pendfmu demo
 
-test: fmus
+test: fmus tools
 	$(PY) -m pytest
+
+# valgrind for the memcheck test (Debian's package; this kind of machine usually has it)
+tools:
+	@command -v valgrind >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq valgrind; } \
+	  || echo "warning: valgrind could not be installed; the memcheck test will be skipped" >&2
 
 clean:
 	rm -rf $(VENV) fmus/*.fmu fmus/build out .pytest_cache

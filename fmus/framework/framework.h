@@ -26,6 +26,9 @@
 #define MAX_INPUT_ORDER 3
 /* Event iterations allowed at one instant before the model is declared inconsistent. */
 #define MAX_EVENT_ITERATIONS 10
+/* Internal steps one fmi2DoStep may take: beyond, the parameters make the model too stiff
+ * (or solver_step too small) to finish, and the step fails with a message, never hangs. */
+#define MAX_INTERNAL_STEPS 10000000.0
 /* Width of the time bracket that locates an event, in seconds. */
 #define EVENT_TIME_TOLERANCE 1e-12
 

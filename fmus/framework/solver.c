@@ -136,6 +136,12 @@ bool solver_do_step(Instance *inst, double t_end) {
     DynamicState *s = &inst->s;
     const double h_max = fmin(R(solver_step), model_max_step(inst));
     double t = s->time;
+    if (!(h_max > 0.0) || (t_end - t) / h_max > MAX_INTERNAL_STEPS) {
+        log_error(inst, "t = %.12g s: a step of %g s needs internal steps of %g s (more than %.0f): the "
+                  "parameters make the model too stiff, or solver_step is too small", t, t_end - t, h_max,
+                  MAX_INTERNAL_STEPS);
+        return false;
+    }
     double z0[N_EVENT_INDICATORS], z1[N_EVENT_INDICATORS], x1[N_STATES];
 
     /* Inputs may have jumped at the communication point: make the mode consistent. */

@@ -1,0 +1,76 @@
+"""Fuzzing the FMUs' parameters and inputs (issue 7): whatever the values (NaN, Inf, huge,
+tiny, sign flips), every call returns fmi2OK or fmi2Error with a logged reason, and never
+crashes or hangs. A crash would take the test process down; a hang is caught by the
+per-example deadline."""
+
+from __future__ import annotations
+
+import math
+from datetime import timedelta
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from pendfmu.components import COMPONENTS
+from pendfmu.simulator.component import ComponentFMU, FMUError
+
+SPECIAL = [0.0, -0.0, 1e-300, -1e-300, 5e-324, 1e-12, 1.0, -1.0, 1e12, -1e12, 1e300, -1e300, 1.7e308,
+           math.inf, -math.inf, math.nan]
+values = st.one_of(st.sampled_from(SPECIAL), st.floats(allow_nan=True, allow_infinity=True))
+
+
+def parameters_of(name):
+    names = sorted(COMPONENTS[name].parameters)
+    return st.dictionaries(st.sampled_from(names), values, max_size=4)
+
+
+def inputs_of(name):
+    names = [v.name for v in COMPONENTS[name].of(causality="input")]
+    return st.lists(st.dictionaries(st.sampled_from(names), values, max_size=len(names)), min_size=1, max_size=4)
+
+
+def exercise(name, parameters, steps):
+    """Instantiate with the parameters and step with the inputs; every failure must be an
+    FMUError that carries the FMU's reason."""
+    try:
+        fmu = ComponentFMU(name, parameters)
+    except FMUError as error:
+        assert str(error).strip() != f"{name}:", "an error without a reason"
+        return
+    try:
+        for inputs in steps:
+            try:
+                fmu.step(1e-3, inputs)
+                fmu.get(*(v.name for v in fmu.component.of(causality="output")))
+            except FMUError as error:
+                assert len(str(error)) > len(name) + 2, "an error without a reason"
+                return
+    finally:
+        fmu.free()
+
+
+def fuzz(name):
+    @settings(max_examples=60, deadline=timedelta(seconds=5), derandomize=True,
+              suppress_health_check=[HealthCheck.too_slow])
+    @given(parameters_of(name), inputs_of(name))
+    def run(parameters, steps):
+        exercise(name, parameters, steps)
+
+    return run
+
+
+test_fuzz_current_loop = fuzz("CurrentLoop")
+test_fuzz_cart = fuzz("Cart")
+test_fuzz_pendulum = fuzz("Pendulum")
+
+
+def test_stiff_parameters_fail_with_a_reason_instead_of_hanging():
+    for name, parameters in (("CurrentLoop", {"T_i": 1e-300}), ("Cart", {"k_fwc": 1e300}),
+                             ("Pendulum", {"solver_step": 1e-300})):
+        try:
+            with ComponentFMU(name, parameters) as fmu:
+                fmu.step(1e-3, {})
+        except FMUError as error:
+            assert "too stiff" in str(error) or "physical range" in str(error)
+        else:
+            raise AssertionError(f"{name} with {parameters} stepped without complaint")
