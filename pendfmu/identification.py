@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendfmu.checkpoint import Checkpoint, Interrupted, best_candidate
 from pendfmu.components import COMPONENTS
 from pendfmu.experiment import STAGES, Experiment, make_experiment
 from pendfmu.optimizer import GlobalOptions, optimize
@@ -127,8 +128,12 @@ def _start(free: list[FreeParameter], values: Mapping[str, float], experiments: 
 def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mapping[str, float] | None = None,
         free: Sequence[str] | None = None, fix: Sequence[str] = (),
         bounds: Mapping[str, tuple[float, float]] | None = None, seed: int = 0, drive: str | None = None,
-        cost: str = "plain", global_search: GlobalOptions | None = None, progress: bool | None = None) -> FitResult:
-    """Fit `stage` ('current', 'cart' or 'pendulum') to one or more recordings jointly."""
+        cost: str = "plain", global_search: GlobalOptions | None = None, progress: bool | None = None,
+        checkpoint: Checkpoint | None = None) -> FitResult:
+    """Fit `stage` ('current', 'cart' or 'pendulum') to one or more recordings jointly.
+
+    With a checkpoint, the global search's evaluations are remembered in it (and taken from
+    it on a resumed run); Ctrl-C raises Interrupted with the best values found so far."""
     if stage not in STAGES:
         raise ParameterFileError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}, all")
     values = {**rig_defaults(), **check_parameters(params or {})}
@@ -143,8 +148,16 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
     coarse_values = {**values, **({"solver_step": spec.coarse_solver_step} if spec.coarse_solver_step else {})}
     coarse = Residuals(experiments, free_parameters, coarse_values, cost, decimate=spec.coarse_decimate)
     bar = Progress(stage, options.maxiter if options.enabled else 0, progress)
+    cache = checkpoint.cache(f"{stage}:{','.join(names)}") if checkpoint else {}
     try:
-        outcome = optimize(residuals, coarse, _start(free_parameters, values, experiments), seed, options, bar)
+        u0 = _start(free_parameters, values, experiments)
+        try:
+            outcome = optimize(residuals, coarse, u0, seed, options, bar, cache)
+        except KeyboardInterrupt:
+            best = best_candidate(cache)
+            found = physical(free_parameters, u0 if best is None else best)
+            shared = {p.name: float(v) for p, v in zip(free_parameters, found) if p.experiment is None}
+            raise Interrupted({**values, **shared}, stage) from None
         estimates, correlation = estimate_uncertainty(free_parameters, outcome.u, outcome.jacobian, outcome.residual)
         notes = list(outcome.messages)
         if outcome.failures:
@@ -252,11 +265,12 @@ def detect_harmonic(result: FitResult) -> dict[str, float] | None:
 
 
 def fit_current(recordings, params=None, seed: int = 0, cost: str = "plain", harmonic: bool | None = None,
-                global_search: GlobalOptions | None = None, progress: bool | None = None, **options) -> FitResult:
+                global_search: GlobalOptions | None = None, progress: bool | None = None,
+                checkpoint: Checkpoint | None = None, **options) -> FitResult:
     """The current stage, with the PWM ripple: unless harmonic=False, a harmonic found in
     the residual of the lag fit is added to the free parameters and fitted with them."""
     first = fit("current", recordings, params, seed=seed, cost=cost, global_search=global_search,
-                progress=progress, **options)
+                progress=progress, checkpoint=checkpoint, **options)
     if harmonic is False or any(name in first.estimates for name in HARMONIC):
         return first
     found = detect_harmonic(first)
@@ -288,7 +302,8 @@ def classify(recording: Recording) -> str | None:
 
 
 def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed: int = 0, cost: str = "plain",
-            global_search: GlobalOptions | None = None, progress: bool | None = None) -> FitResult:
+            global_search: GlobalOptions | None = None, progress: bool | None = None,
+            checkpoint: Checkpoint | None = None) -> FitResult:
     """The paper's sequence on a folder of recordings: current, then cart, then pendulum,
     each stage starting from the previous stage's result. Recordings with both x and phi
     are not fitted; they check the identified model (see validate)."""
@@ -306,7 +321,7 @@ def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed:
         if groups.get(stage):
             run = fit_current if stage == "current" else (lambda *a, **k: fit(stage, *a, **k))
             result = run(groups[stage], values, seed=seed, cost=cost, global_search=global_search,
-                         progress=progress)
+                         progress=progress, checkpoint=checkpoint)
             values = dict(result.parameters)
             results.append(result)
     if not results:

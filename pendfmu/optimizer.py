@@ -1,10 +1,10 @@
 """The optimizer: a seeded global search, then a local least-squares refinement.
 
-Global: scipy's differential evolution over the unit box, on a decimated copy of the
-recordings (every k-th sample: the landscape's shape at a fraction of the cost), its
-candidates evaluated in parallel by local worker processes. Each worker builds its own
-FMU instances once and reuses them (reset per evaluation). With deferred updating the
-result depends on the seed only, not on the number of workers.
+Global: scipy's differential evolution over the unit box, on a cheaper copy of the model
+(every k-th sample and a longer internal step, where the stage allows), its candidates
+evaluated in parallel by local worker processes or by the workers of a Dask cluster. Each
+worker builds its own FMU instances once and reuses them (reset per evaluation). With
+deferred updating the result depends on the seed only, not on the number or kind of workers.
 
 Local: scipy's least_squares (trust-region reflective) from the best candidate, on all
 samples, with a finite-difference Jacobian. A simulation that fails returns a penalty
@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,6 +32,7 @@ _WORKER_RESIDUALS: Residuals | None = None
 def _worker_start(residuals: Residuals) -> None:
     global _WORKER_RESIDUALS
     _WORKER_RESIDUALS = residuals
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
 
 
 def _worker_cost(u: np.ndarray) -> tuple[float, int]:
@@ -38,12 +41,26 @@ def _worker_cost(u: np.ndarray) -> tuple[float, int]:
     return cost, _WORKER_RESIDUALS.failures - before
 
 
+_DASK_LOCK = threading.Lock()
+
+
+def _dask_cost(u: np.ndarray, residuals: Residuals) -> tuple[float, int]:
+    """On a Dask worker: `residuals` was scattered once, so the worker keeps one copy and its
+    FMU instances across tasks (reset per run); the lock keeps a multi-threaded worker from
+    stepping those instances from two threads at once."""
+    with _DASK_LOCK:
+        before = residuals.failures
+        cost = residuals.sum_of_squares(u)
+        return cost, residuals.failures - before
+
+
 @dataclass
 class GlobalOptions:
     enabled: bool = True
     popsize: int = 8  # candidates per free parameter
     maxiter: int = 25
     workers: int = 0  # 0: one per core
+    scheduler: str | None = None  # a Dask scheduler address: evaluate candidates on its workers
 
 
 @dataclass
@@ -58,46 +75,80 @@ class Outcome:
     messages: list[str] = field(default_factory=list)
 
 
-class _Pool:
-    """Parallel map over worker processes that hold the (decimated) residuals."""
+class _Evaluator:
+    """Evaluates differential evolution's candidates, in worker processes or here, and
+    remembers every cost by the candidate's exact coordinates: the memory a checkpoint
+    keeps, so that a resumed fit looks up what it had already simulated."""
 
-    def __init__(self, residuals: Residuals, workers: int):
-        context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
-        self.pool = context.Pool(workers, initializer=_worker_start, initargs=(residuals,))
+    def __init__(self, residuals: Residuals, workers: int, cache: dict[bytes, float], scheduler: str | None = None):
+        self.residuals = residuals
+        self.cache = cache
         self.failures = 0
+        self.pool = None
+        self.client = None
+        if scheduler:
+            try:
+                from distributed import Client
+            except ImportError:
+                raise RuntimeError("--scheduler needs Dask: pip install 'pendfmu[distributed]'") from None
+            self.client = Client(scheduler, set_as_default=False)
+            self.remote = self.client.scatter(residuals, broadcast=True, hash=False)
+        elif workers > 1:
+            context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
+            self.pool = context.Pool(workers, initializer=_worker_start, initargs=(residuals,))
 
     def __call__(self, function: Callable, candidates) -> list[float]:
-        results = self.pool.map(_worker_cost, list(candidates))
-        self.failures += sum(f for _, f in results)
-        return [cost for cost, _ in results]
+        candidates = [np.asarray(c, dtype=float) for c in candidates]
+        keys = [c.tobytes() for c in candidates]
+        missing = [k for k, key in enumerate(keys) if key not in self.cache]
+        # Each cost is remembered as soon as it is known, so an interrupt loses none.
+        for k, (cost, failed) in zip(missing, self._costs([candidates[k] for k in missing])):
+            self.cache[keys[k]] = cost
+            self.failures += failed
+        return [self.cache[key] for key in keys]
+
+    def _costs(self, candidates):
+        if self.client is not None:
+            futures = self.client.map(_dask_cost, candidates, residuals=self.remote, pure=False)
+            yield from self.client.gather(futures, direct=False)
+            return
+        if self.pool is not None:
+            yield from self.pool.imap(_worker_cost, candidates)
+            return
+        for u in candidates:
+            before = self.residuals.failures
+            yield self.residuals.sum_of_squares(u), self.residuals.failures - before
 
     def close(self) -> None:
-        self.pool.terminate()
-        self.pool.join()
+        if self.pool is not None:
+            self.pool.terminate()
+            self.pool.join()
+        if self.client is not None:
+            self.client.close()
 
 
 def global_search(coarse: Residuals, n: int, seed: int, options: GlobalOptions,
-                  progress: Callable[[str], None] | None = None) -> tuple[np.ndarray, float, int, int]:
-    """Differential evolution over the unit box; returns (best u, its cost, nfev, failures)."""
+                  progress: Callable[[str], None] | None = None,
+                  cache: dict[bytes, float] | None = None) -> tuple[np.ndarray, float, int, int]:
+    """Differential evolution over the unit box; returns (best u, its cost, nfev, failures).
+    `cache` maps candidates to costs already known (from a checkpoint) and collects new ones."""
     workers = options.workers or os.cpu_count() or 1
-    pool = _Pool(coarse, workers) if workers > 1 else None
+    evaluator = _Evaluator(coarse, workers, {} if cache is None else cache, options.scheduler)
     generation = [0]
 
-    def report(xk, convergence=None):
+    def report(intermediate_result):
         generation[0] += 1
         if progress:
             progress(f"global search: generation {generation[0]}/{options.maxiter}")
 
     try:
         result = differential_evolution(
-            coarse.sum_of_squares, [(0.0, 1.0)] * n, seed=seed, popsize=options.popsize,
+            coarse.sum_of_squares, [(0.0, 1.0)] * n, rng=np.random.default_rng(seed), popsize=options.popsize,
             maxiter=options.maxiter, tol=1e-3, init="sobol", polish=False, updating="deferred",
-            workers=pool if pool else 1, callback=report)
+            workers=evaluator, callback=report)
     finally:
-        if pool:
-            pool.close()
-    failures = (pool.failures if pool else 0) + coarse.failures
-    return result.x, float(result.fun), int(result.nfev), failures
+        evaluator.close()
+    return result.x, float(result.fun), int(result.nfev), evaluator.failures
 
 
 LOCAL_BUDGET = 30  # least-squares iterations per (free parameter + 1); each also runs n Jacobian columns
@@ -115,13 +166,14 @@ def local_search(residuals: Residuals, u0: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def optimize(residuals: Residuals, coarse: Residuals | None, u0: np.ndarray, seed: int,
-             options: GlobalOptions, progress: Callable[[str], None] | None = None) -> Outcome:
+             options: GlobalOptions, progress: Callable[[str], None] | None = None,
+             cache: dict[bytes, float] | None = None) -> Outcome:
     start = time.perf_counter()
     nfev = failures = 0
     global_best = None
     messages = []
     if options.enabled and coarse is not None and len(u0):
-        u_global, global_best, nfev, failures = global_search(coarse, len(u0), seed, options, progress)
+        u_global, global_best, nfev, failures = global_search(coarse, len(u0), seed, options, progress, cache)
         # Keep the start the user gave if the global search found nothing better.
         if coarse.sum_of_squares(u_global) <= coarse.sum_of_squares(u0):
             u0 = u_global

@@ -182,6 +182,31 @@ def fitting(quick: bool) -> None:
                   f"{result.failures} failed")
 
 
+def dask_scaling() -> None:
+    """The global search of a cart fit on a Dask LocalCluster with 1 and with 2 workers."""
+    try:
+        from distributed import LocalCluster
+    except ImportError:
+        print("dask: not installed (pip install 'pendfmu[distributed]')")
+        return
+    from pendfmu.identification import fit
+    from pendfmu.optimizer import GlobalOptions
+    from pendfmu.virtual_rig import standard_experiments, write_experiments
+
+    chosen = [e for e in standard_experiments() if e.name.startswith("cart-startup")]
+    with tempfile.TemporaryDirectory() as tmp:
+        write_experiments(tmp, {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5}, seed=2, experiments=chosen)
+        files = sorted(Path(tmp).glob("cart-*.csv"))
+        times = {}
+        for workers in (1, 2):
+            with LocalCluster(n_workers=workers, threads_per_worker=1, host="127.0.0.1",
+                              dashboard_address=None) as cluster:
+                options = GlobalOptions(scheduler=cluster.scheduler_address)
+                times[workers], _ = timed(fit, "cart", files, seed=3, global_search=options, progress=False)
+    print(f"dask, cart fit (global search on the cluster): 1 worker {times[1]:.1f} s, 2 workers {times[2]:.1f} s "
+          f"-> {times[1] / times[2]:.2f}x")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="skip the full fit-all timing")
@@ -190,6 +215,7 @@ def main() -> None:
     cosimulation(10.0)
     scaling()
     fitting(args.quick)
+    dask_scaling()
 
 
 if __name__ == "__main__":

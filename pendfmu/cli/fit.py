@@ -31,6 +31,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="residuals: plain least squares, or zero inside each reading's quantization step")
     parser.add_argument("--no-global", action="store_true", help="skip the global search (local refinement only)")
     parser.add_argument("--workers", type=int, default=0, help="processes for the global search (default: cores)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="evaluate the global search on a Dask cluster (e.g. tcp://10.0.0.5:8786)")
+    parser.add_argument("--checkpoint", help="checkpoint file written on Ctrl-C (default: OUT with .checkpoint)")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue an interrupted fit from its checkpoint (same command otherwise)")
 
 
 def _bounds(items: list[str]) -> dict[str, tuple[float, float]]:
@@ -50,25 +55,45 @@ def _bounds(items: list[str]) -> dict[str, tuple[float, float]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from pendfmu.checkpoint import Checkpoint, Interrupted, fingerprint
     from pendfmu.errors import UsageError
     from pendfmu.identification import fit, fit_all, fit_current
     from pendfmu.optimizer import GlobalOptions
-    from pendfmu.parameters import read_parameters
+    from pendfmu.parameters import read_parameters, write_parameters
 
     params = read_parameters(args.params) if args.params else {}
-    options = GlobalOptions(enabled=not args.no_global, workers=args.workers)
-    if args.stage == "all":
-        if len(args.recordings) != 1:
-            raise UsageError("fit all takes one folder of recordings")
-        result = fit_all(args.recordings[0], params, seed=args.seed, cost=args.cost, global_search=options)
-    else:
-        common = dict(seed=args.seed, cost=args.cost, global_search=options, fix=args.fix,
-                      bounds=_bounds(args.bounds), drive=args.drive)
-        if args.stage == "current" and not args.free:
-            result = fit_current(args.recordings, params, **common)
+    options = GlobalOptions(enabled=not args.no_global, workers=args.workers, scheduler=args.scheduler)
+    bounds = _bounds(args.bounds)
+    files = sorted(Path(args.recordings[0]).iterdir()) if args.stage == "all" and Path(args.recordings[0]).is_dir() \
+        else [Path(r) for r in args.recordings]
+    files = [f for f in files if f.suffix.lower() in (".csv", ".mat") and f.is_file()]
+    key = fingerprint(args.stage, sorted(params.items()), args.seed, args.cost, args.free, args.fix,
+                      sorted(bounds.items()), args.drive, args.no_global, files=files)
+    path = Path(args.checkpoint or f"{args.out}.checkpoint")
+    checkpoint = Checkpoint.load(path, key) if args.resume else Checkpoint(path, key)
+    common = dict(seed=args.seed, cost=args.cost, global_search=options, checkpoint=checkpoint)
+    try:
+        if args.stage == "all":
+            if len(args.recordings) != 1:
+                raise UsageError("fit all takes one folder of recordings")
+            result = fit_all(args.recordings[0], params, **common)
         else:
-            result = fit(args.stage, args.recordings, params, free=args.free, **common)
+            common.update(fix=args.fix, bounds=bounds, drive=args.drive)
+            if args.stage == "current" and not args.free:
+                result = fit_current(args.recordings, params, **common)
+            else:
+                result = fit(args.stage, args.recordings, params, free=args.free, **common)
+    except Interrupted as stop:
+        write_parameters(stop.parameters, args.out, interrupted=f"{stop} (best values so far)")
+        checkpoint.save()
+        print(f"interrupted: best values so far in {args.out}; resume with the same command and --resume "
+              f"(checkpoint {path})")
+        return 130
     result.write_json(args.out)
+    if path.exists():
+        path.unlink()  # the fit is complete: its checkpoint has served
     print(f"wrote {args.out}: {_summary(result)}")
     if args.report:
         print(f"report: {result.write_report(args.report)}")

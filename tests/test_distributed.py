@@ -1,0 +1,73 @@
+"""The global search on a Dask cluster (issue 6): a LocalCluster on loopback gives the same
+result file as local processes (deferred updating makes the search independent of who
+evaluates the candidates), and each Dask worker keeps one copy of the residuals and its
+FMU instances across tasks."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+distributed = pytest.importorskip("distributed")
+
+from pendfmu.cli import main  # noqa: E402
+from pendfmu.virtual_rig import Experiment, steps, write_experiments  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+                                  processes=True) as local:
+        yield local
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    out = tmp_path_factory.mktemp("dask")
+    experiment = Experiment("cart", "cart", 0.4, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.02, 2.0), (0.25, 0.0)),
+                            sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"))
+    write_experiments(out, {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}, seed=9, experiments=[experiment])
+    return out / "cart.csv"
+
+
+def result(path):
+    document = json.loads(path.read_text())
+    document["fit"].pop("seconds")
+    return document
+
+
+def test_dask_cluster_gives_the_same_result_as_local_processes(cluster, recording, tmp_path):
+    command = ["fit", "cart", str(recording), "--seed", "11"]
+    assert main(command + ["--out", str(tmp_path / "local.json"), "--workers", "2"]) == 0
+    assert main(command + ["--out", str(tmp_path / "dask.json"), "--scheduler", cluster.scheduler_address]) == 0
+    assert result(tmp_path / "dask.json") == result(tmp_path / "local.json")
+    assert result(tmp_path / "dask.json")["parameters"]["F_Kc"] == pytest.approx(7.0, rel=0.03)
+
+
+def test_workers_keep_their_fmu_instances_across_tasks(cluster, recording):
+    """One scattered copy per worker: its simulators hold FMU instances after the first task."""
+    from distributed import Client
+
+    from pendfmu.experiment import make_experiment
+    from pendfmu.identification import _free_parameters, rig_defaults
+    from pendfmu.optimizer import _dask_cost
+    from pendfmu.recording import read_recording
+    from pendfmu.residuals import Residuals
+
+    values = rig_defaults()
+    experiment = make_experiment(read_recording(recording), "cart", values)
+    residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
+    with Client(cluster.scheduler_address, set_as_default=False) as client:
+        remote = client.scatter(residuals, broadcast=True, hash=False)
+        client.gather(client.map(_dask_cost, [[0.5, 0.5, 0.5, 0.2]] * 8, residuals=remote, pure=False))
+
+        def instances(dask_worker):
+            copies = [v for v in dask_worker.data.values() if isinstance(v, Residuals)]
+            return [(c.evaluations, sum(len(s._fmus) for s in c.simulators)) for c in copies]
+
+        per_worker = client.run(instances)
+    counts = [pair for pairs in per_worker.values() for pair in pairs]
+    assert len(counts) == 2  # one copy on each worker
+    assert sum(evaluations for evaluations, _ in counts) == 8
+    assert all(fmus == 2 for evaluations, fmus in counts if evaluations)  # CurrentLoop and Cart, made once

@@ -1,0 +1,91 @@
+"""Ctrl-C during a fit (issue 7): the best values so far and a checkpoint are written, and
+`--resume` ends at the same result, to the bit, as a fit that was never interrupted,
+without repeating the simulations done before the interrupt."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from pendfmu.cli import main
+from pendfmu.residuals import Residuals
+from pendfmu.virtual_rig import Experiment, steps, write_experiments
+
+
+def cart_experiment(name, duration, current):
+    return Experiment(name, "cart", duration, 2e-4, ("I_c", "I", "x"),
+                      steps((0, 0.0), (0.02, current), (duration * 0.6, 0.0)),
+                      sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"))
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    out = tmp_path_factory.mktemp("interrupt")
+    write_experiments(out, {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}, seed=9,
+                      experiments=[cart_experiment("cart", 0.4, 2.0)])
+    return out / "cart.csv"
+
+
+def without_time(path):
+    document = json.loads(path.read_text())
+    document["fit"].pop("seconds")
+    return document
+
+
+def test_interrupt_writes_best_so_far_and_resume_matches_an_uninterrupted_fit(recording, tmp_path, monkeypatch):
+    command = ["fit", "cart", str(recording), "--seed", "8", "--workers", "1"]
+    calls = {"n": 0, "stop_at": None}
+    original = Residuals.sum_of_squares
+
+    def counted(self, u):
+        calls["n"] += 1
+        if calls["n"] == calls["stop_at"]:
+            raise KeyboardInterrupt
+        return original(self, u)
+
+    monkeypatch.setattr(Residuals, "sum_of_squares", counted)
+    assert main(command + ["--out", str(tmp_path / "straight.json")]) == 0
+    straight_calls = calls["n"]
+
+    calls.update(n=0, stop_at=40)
+    out = tmp_path / "fit.json"
+    assert main(command + ["--out", str(out)]) == 130
+    best = json.loads(out.read_text())
+    assert "interrupted" in best and set(best["parameters"]) >= {"eta", "k_fwc", "F_Kc", "F_Sc"}
+    checkpoint = tmp_path / "fit.json.checkpoint"
+    assert checkpoint.exists()
+
+    calls.update(n=0, stop_at=None)
+    assert main(command + ["--out", str(out), "--resume"]) == 0
+    assert without_time(out) == without_time(tmp_path / "straight.json")
+    assert calls["n"] == straight_calls - 39  # the 39 finished simulations were looked up, not repeated
+    assert not checkpoint.exists()  # a completed fit removes its checkpoint
+
+
+def test_resume_refuses_a_checkpoint_of_another_fit(recording, tmp_path, capsys):
+    checkpoint = tmp_path / "other.checkpoint"
+    checkpoint.write_text(json.dumps({"pendfmu_checkpoint": 1, "fingerprint": "another", "costs": {}}))
+    code = main(["fit", "cart", str(recording), "--out", str(tmp_path / "o.json"), "--checkpoint", str(checkpoint),
+                 "--resume"])
+    assert code == 2 and "belongs to another fit" in capsys.readouterr().err
+
+
+def test_a_real_sigint_stops_worker_processes_and_writes_the_checkpoint(tmp_path):
+    write_experiments(tmp_path, {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}, seed=9,
+                      experiments=[cart_experiment("long", 3.0, 2.5)])
+    out = tmp_path / "fit.json"
+    process = subprocess.Popen([sys.executable, "-m", "pendfmu", "fit", "cart", str(tmp_path / "long.csv"),
+                                "--out", str(out), "--workers", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    time.sleep(4.0)  # start-up, then well inside the global search (which takes much longer)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=120)
+    assert process.returncode == 130, stderr
+    assert "interrupted" in stdout and (tmp_path / "fit.json.checkpoint").exists()
+    assert "interrupted" in json.loads(out.read_text())
