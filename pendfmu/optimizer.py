@@ -44,14 +44,16 @@ def _worker_cost(u: np.ndarray) -> tuple[float, int]:
 _DASK_LOCK = threading.Lock()
 
 
-def _dask_cost(u: np.ndarray, residuals: Residuals) -> tuple[float, int]:
-    """On a Dask worker: `residuals` was scattered once, so the worker keeps one copy and its
-    FMU instances across tasks (reset per run); the lock keeps a multi-threaded worker from
-    stepping those instances from two threads at once."""
+def _dask_costs(candidates: list[np.ndarray], residuals: Residuals) -> list[tuple[float, int]]:
+    """On a Dask worker, a chunk of candidates: `residuals` was scattered once, so the worker
+    keeps one copy and its FMU instances across tasks (reset per run); the lock keeps a
+    multi-threaded worker from stepping those instances from two threads at once."""
+    results = []
     with _DASK_LOCK:
-        before = residuals.failures
-        cost = residuals.sum_of_squares(u)
-        return cost, residuals.failures - before
+        for u in candidates:
+            before = residuals.failures
+            results.append((residuals.sum_of_squares(u), residuals.failures - before))
+    return results
 
 
 @dataclass
@@ -109,8 +111,16 @@ class _Evaluator:
 
     def _costs(self, candidates):
         if self.client is not None:
-            futures = self.client.map(_dask_cost, candidates, residuals=self.remote, pure=False)
-            yield from self.client.gather(futures, direct=False)
+            # One chunk per worker, pinned to it: a generation's candidates cost about the
+            # same, and every task costs the scheduler time the workers could use.
+            workers = sorted(self.client.scheduler_info()["workers"])
+            chunks = [c for c in np.array_split(np.arange(len(candidates)), max(1, min(len(candidates), len(workers))))
+                      if len(c)]
+            futures = [self.client.submit(_dask_costs, [candidates[k] for k in chunk], self.remote, pure=False,
+                                          workers=[worker], allow_other_workers=True)
+                       for chunk, worker in zip(chunks, workers)]
+            for future in futures:
+                yield from future.result()
             return
         if self.pool is not None:
             yield from self.pool.imap(_worker_cost, candidates)

@@ -51,7 +51,7 @@ def test_workers_keep_their_fmu_instances_across_tasks(cluster, recording):
 
     from pendfmu.experiment import make_experiment
     from pendfmu.identification import _free_parameters, rig_defaults
-    from pendfmu.optimizer import _dask_cost
+    from pendfmu.optimizer import _dask_costs
     from pendfmu.recording import read_recording
     from pendfmu.residuals import Residuals
 
@@ -60,7 +60,7 @@ def test_workers_keep_their_fmu_instances_across_tasks(cluster, recording):
     residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
     with Client(cluster.scheduler_address, set_as_default=False) as client:
         remote = client.scatter(residuals, broadcast=True, hash=False)
-        client.gather(client.map(_dask_cost, [[0.5, 0.5, 0.5, 0.2]] * 8, residuals=remote, pure=False))
+        client.gather(client.map(_dask_costs, [[[0.5, 0.5, 0.5, 0.2]] * 2] * 4, residuals=remote, pure=False))
 
         def instances(dask_worker):
             copies = [v for v in dask_worker.data.values() if isinstance(v, Residuals)]
