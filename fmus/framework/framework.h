@@ -60,6 +60,7 @@ extern const RealInfo REAL_INFO[N_REAL];
 extern const DiscreteInfo INTEGER_INFO[N_INTEGER];
 extern const DiscreteInfo BOOLEAN_INFO[N_BOOLEAN];
 extern const unsigned STATE_VR[N_STATES];
+extern const unsigned INPUT_VR[N_INPUTS];
 
 /* The states of the FMI 2.0 call sequence, as bits so that each function can name the
  * set of states it may be called in. */

@@ -15,16 +15,14 @@
 
 #include "framework.h"
 
-static bool is_input(int vr) { return REAL_INFO[vr].causality == CAUSALITY_INPUT; }
-
 /* Evaluate the inputs at time t from the polynomial set by fmi2SetRealInputDerivatives.
  * Without derivatives for the current step, inputs are held (zero-order hold). */
 void solver_inputs_at(Instance *inst, double t) {
     DynamicState *s = &inst->s;
     if (!s->uder_set) return;
     const double dt = t - s->uder_time;
-    for (int vr = 0; vr < N_REAL; vr++) {
-        if (!is_input(vr)) continue;
+    for (int j = 0; j < N_INPUTS; j++) {
+        const unsigned vr = INPUT_VR[j];
         double value = s->u_base[vr], power = 1.0, factorial = 1.0;
         for (int k = 1; k <= MAX_INPUT_ORDER; k++) {
             power *= dt;

@@ -46,6 +46,7 @@ def variables_header(component: Component, guid: str) -> str:
         f"#define VR_INTEGER_BASE {len(reals)}",
         f"#define VR_BOOLEAN_BASE {len(reals) + len(integers)}",
         f"#define N_STATES {len(component.states)}",
+        f"#define N_INPUTS {len(component.of(causality='input', type='Real'))}",
         f"#define N_EVENT_INDICATORS {component.event_indicators}",
         "",
         "enum ValueReference {",
@@ -80,5 +81,7 @@ def variables_source(component: Component) -> str:
     lines += [_discrete_info(v) for v in component.of(type="Boolean")]
     lines += ["};", "", "const unsigned STATE_VR[N_STATES] = {"]
     lines += [f"    VR_{c_identifier(v.name)}," for v in component.states]
+    lines += ["};", "", "const unsigned INPUT_VR[N_INPUTS] = {"]
+    lines += [f"    VR_{c_identifier(v.name)}," for v in component.of(causality="input", type="Real")]
     lines += ["};", ""]
     return "\n".join(lines)
