@@ -21,9 +21,10 @@ static Friction friction(const Instance *inst) {
 
 static double active_force(const Instance *inst) {
     const double eta = R(eta);
-    const double back_drive = eta > 0.5 ? (2.0 * eta - 1.0) / eta : 0.0;
-    const double pendulum = R(m_p) * R(l) * (R(w) * R(w) * sin(R(phi)) - R(alpha) * cos(R(phi)));
-    return eta * R(k_M) * R(k_D) * R(I) + back_drive * pendulum;
+    const double drive = eta * R(k_M) * R(k_D) * R(I);
+    if (eta <= 0.5) return drive; /* self-locking: the pendulum cannot push the cart */
+    const double back_drive = (2.0 * eta - 1.0) / eta;
+    return drive + back_drive * R(m_p) * R(l) * (R(w) * R(w) * sin(R(phi)) - R(alpha) * cos(R(phi)));
 }
 
 bool model_check_parameters(const Instance *inst, char *why, size_t size) {

@@ -490,11 +490,19 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
                         value[k]);
     }
     if (!inst->s.uder_set || inst->s.uder_time != inst->s.time) {
-        memset(inst->s.uder, 0, sizeof inst->s.uder); /* derivatives of an earlier point are void */
+        memset(inst->s.taylor, 0, sizeof inst->s.taylor); /* derivatives of an earlier point are void */
+        memset(inst->s.uder_order, 0, sizeof inst->s.uder_order);
         inst->s.uder_time = inst->s.time;
         inst->s.uder_set = true;
     }
-    for (size_t k = 0; k < nvr; k++) inst->s.uder[vr[k]][order[k] - 1] = value[k];
+    static const double factorial[MAX_INPUT_ORDER + 1] = {1.0, 1.0, 2.0, 6.0};
+    for (size_t k = 0; k < nvr; k++) {
+        inst->s.taylor[vr[k]][order[k] - 1] = value[k] / factorial[order[k]];
+        int highest = 0;
+        for (int j = 1; j <= MAX_INPUT_ORDER; j++)
+            if (inst->s.taylor[vr[k]][j - 1] != 0.0) highest = j;
+        inst->s.uder_order[vr[k]] = highest;
+    }
     return fmi2OK;
 }
 

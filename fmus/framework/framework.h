@@ -81,9 +81,11 @@ typedef struct {
     int i[N_INTEGER];
     bool b[N_BOOLEAN];
     double x[N_STATES];
-    /* Co-Simulation input interpolation: u(t) = u_base + sum_k uder[k-1] (t-uder_time)^k/k! */
+    /* Co-Simulation input interpolation: u(t) = u_base + sum_k taylor[k-1] (t-uder_time)^k,
+     * taylor[k-1] being the k-th derivative over k! */
     double u_base[N_REAL];
-    double uder[N_REAL][MAX_INPUT_ORDER];
+    double taylor[N_REAL][MAX_INPUT_ORDER];
+    int uder_order[N_REAL]; /* highest nonzero derivative order of each input (0: held) */
     double uder_time;
     bool uder_set;
     FmuPhase phase;

@@ -23,13 +23,11 @@ void solver_inputs_at(Instance *inst, double t) {
     const double dt = t - s->uder_time;
     for (int j = 0; j < N_INPUTS; j++) {
         const unsigned vr = INPUT_VR[j];
-        double value = s->u_base[vr], power = 1.0, factorial = 1.0;
-        for (int k = 1; k <= MAX_INPUT_ORDER; k++) {
-            power *= dt;
-            factorial *= k;
-            value += s->uder[vr][k - 1] * power / factorial;
-        }
-        s->r[vr] = value;
+        const int order = s->uder_order[vr];
+        if (!order) continue; /* held: r[vr] is u_base[vr] already */
+        double sum = s->taylor[vr][order - 1]; /* Horner */
+        for (int k = order - 1; k >= 1; k--) sum = sum * dt + s->taylor[vr][k - 1];
+        s->r[vr] = s->u_base[vr] + sum * dt;
     }
 }
 
