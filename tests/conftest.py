@@ -10,3 +10,28 @@ from pendfmu.fmubuild import build_all
 @pytest.fixture(scope="session", autouse=True)
 def built_fmus():
     return build_all()
+
+
+@pytest.fixture(scope="session")
+def cart_recording(tmp_path_factory):
+    """A short cart start-up (pendulum removed) on the virtual rig, with a truth away from
+    the defaults: the small fit that the determinism, failure, interrupt and Dask tests share."""
+    from pendfmu.virtual_rig import Experiment, steps, write_experiments
+
+    out = tmp_path_factory.mktemp("cart-recording")
+    experiment = Experiment("cart", "cart", 0.4, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.02, 2.0), (0.25, 0.0)),
+                            sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"))
+    write_experiments(out, CART_TRUTH, seed=9, experiments=[experiment])
+    return out / "cart.csv"
+
+
+CART_TRUTH = {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}
+
+
+def result_without_time(path):
+    """A result file's content without fit.seconds, the one field that differs between runs."""
+    import json
+
+    document = json.loads(path.read_text())
+    document["fit"].pop("seconds")
+    return document

@@ -5,14 +5,12 @@ FMU instances across tasks."""
 
 from __future__ import annotations
 
-import json
-
 import pytest
 
 distributed = pytest.importorskip("distributed")
 
 from pendfmu.cli import main  # noqa: E402
-from pendfmu.virtual_rig import Experiment, steps, write_experiments  # noqa: E402
+from conftest import result_without_time  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -22,30 +20,15 @@ def cluster():
         yield local
 
 
-@pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    out = tmp_path_factory.mktemp("dask")
-    experiment = Experiment("cart", "cart", 0.4, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.02, 2.0), (0.25, 0.0)),
-                            sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"))
-    write_experiments(out, {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}, seed=9, experiments=[experiment])
-    return out / "cart.csv"
-
-
-def result(path):
-    document = json.loads(path.read_text())
-    document["fit"].pop("seconds")
-    return document
-
-
-def test_dask_cluster_gives_the_same_result_as_local_processes(cluster, recording, tmp_path):
-    command = ["fit", "cart", str(recording), "--seed", "11"]
+def test_dask_cluster_gives_the_same_result_as_local_processes(cluster, cart_recording, tmp_path):
+    command = ["fit", "cart", str(cart_recording), "--seed", "11"]
     assert main(command + ["--out", str(tmp_path / "local.json"), "--workers", "2"]) == 0
     assert main(command + ["--out", str(tmp_path / "dask.json"), "--scheduler", cluster.scheduler_address]) == 0
-    assert result(tmp_path / "dask.json") == result(tmp_path / "local.json")
-    assert result(tmp_path / "dask.json")["parameters"]["F_Kc"] == pytest.approx(7.0, rel=0.03)
+    assert result_without_time(tmp_path / "dask.json") == result_without_time(tmp_path / "local.json")
+    assert result_without_time(tmp_path / "dask.json")["parameters"]["F_Kc"] == pytest.approx(7.0, rel=0.03)
 
 
-def test_workers_keep_their_fmu_instances_across_tasks(cluster, recording):
+def test_workers_keep_their_fmu_instances_across_tasks(cluster, cart_recording):
     """One scattered copy per worker: its simulators hold FMU instances after the first task."""
     from distributed import Client
 
@@ -56,7 +39,7 @@ def test_workers_keep_their_fmu_instances_across_tasks(cluster, recording):
     from pendfmu.residuals import Residuals
 
     values = rig_defaults()
-    experiment = make_experiment(read_recording(recording), "cart", values)
+    experiment = make_experiment(read_recording(cart_recording), "cart", values)
     residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
     with Client(cluster.scheduler_address, set_as_default=False) as client:
         remote = client.scatter(residuals, broadcast=True, hash=False)

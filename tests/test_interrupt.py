@@ -13,6 +13,8 @@ import time
 
 import pytest
 
+from conftest import CART_TRUTH, result_without_time
+
 from pendfmu.cli import main
 from pendfmu.residuals import Residuals
 from pendfmu.virtual_rig import Experiment, steps, write_experiments
@@ -24,22 +26,8 @@ def cart_experiment(name, duration, current):
                       sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"))
 
 
-@pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    out = tmp_path_factory.mktemp("interrupt")
-    write_experiments(out, {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}, seed=9,
-                      experiments=[cart_experiment("cart", 0.4, 2.0)])
-    return out / "cart.csv"
-
-
-def without_time(path):
-    document = json.loads(path.read_text())
-    document["fit"].pop("seconds")
-    return document
-
-
-def test_interrupt_writes_best_so_far_and_resume_matches_an_uninterrupted_fit(recording, tmp_path, monkeypatch):
-    command = ["fit", "cart", str(recording), "--seed", "8", "--workers", "1"]
+def test_interrupt_writes_best_so_far_and_resume_matches_an_uninterrupted_fit(cart_recording, tmp_path, monkeypatch):
+    command = ["fit", "cart", str(cart_recording), "--seed", "8", "--workers", "1"]
     calls = {"n": 0, "stop_at": None}
     original = Residuals.sum_of_squares
 
@@ -63,22 +51,21 @@ def test_interrupt_writes_best_so_far_and_resume_matches_an_uninterrupted_fit(re
 
     calls.update(n=0, stop_at=None)
     assert main(command + ["--out", str(out), "--resume"]) == 0
-    assert without_time(out) == without_time(tmp_path / "straight.json")
+    assert result_without_time(out) == result_without_time(tmp_path / "straight.json")
     assert calls["n"] == straight_calls - 39  # the 39 finished simulations were looked up, not repeated
     assert not checkpoint.exists()  # a completed fit removes its checkpoint
 
 
-def test_resume_refuses_a_checkpoint_of_another_fit(recording, tmp_path, capsys):
+def test_resume_refuses_a_checkpoint_of_another_fit(cart_recording, tmp_path, capsys):
     checkpoint = tmp_path / "other.checkpoint"
     checkpoint.write_text(json.dumps({"pendfmu_checkpoint": 1, "fingerprint": "another", "costs": {}}))
-    code = main(["fit", "cart", str(recording), "--out", str(tmp_path / "o.json"), "--checkpoint", str(checkpoint),
+    code = main(["fit", "cart", str(cart_recording), "--out", str(tmp_path / "o.json"), "--checkpoint", str(checkpoint),
                  "--resume"])
     assert code == 2 and "belongs to another fit" in capsys.readouterr().err
 
 
 def test_a_real_sigint_stops_worker_processes_and_writes_the_checkpoint(tmp_path):
-    write_experiments(tmp_path, {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}, seed=9,
-                      experiments=[cart_experiment("long", 3.0, 2.5)])
+    write_experiments(tmp_path, CART_TRUTH, seed=9, experiments=[cart_experiment("long", 3.0, 2.5)])
     out = tmp_path / "fit.json"
     process = subprocess.Popen([sys.executable, "-m", "pendfmu", "fit", "cart", str(tmp_path / "long.csv"),
                                 "--out", str(out), "--workers", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
