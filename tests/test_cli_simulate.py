@@ -60,7 +60,10 @@ def test_unknown_parameter_is_exit_2_listing_valid_names(recording, tmp_path, ca
     assert len(err.strip().splitlines()) == 1
 
 
-@pytest.mark.parametrize("parameters, fragment", [({"m_c": -1}, "m_c = -1"), ({"eta": 1.5}, "eta = 1.5"),
+@pytest.mark.parametrize("parameters, fragment", [({"m_c": -1}, "m_c = -1 is outside its physical range (0.0, inf)"),
+                                                  ({"eta": 1.5}, "eta = 1.5 is outside its physical range (0.0, 1.0]"),
+                                                  ({"eta": 0.0}, "eta = 0 is outside its physical range (0.0, 1.0]"),
+                                                  ({"l": 0.0}, "l = 0 is outside its physical range (0.0, inf)"),
                                                   ({"l": "long"}, "l = 'long' is not a number")])
 def test_bad_parameter_values_are_exit_2(recording, tmp_path, capsys, parameters, fragment):
     params = write(tmp_path / "p.json", {"parameters": parameters})
