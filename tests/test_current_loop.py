@@ -39,8 +39,32 @@ def test_saturation_ends_at_the_analytic_instant(step_response):
 
 
 def test_exponential_after_the_corner(step_response):
-    # RK4 at T_i/10 errs by (0.1)^5/120 = 8e-8 of the remaining error per step.
-    np.testing.assert_allclose(step_response["I"], analytic(step_response["time"]), rtol=0, atol=1e-7)
+    # The current loop steps with its exact solution (held or ramped input): only rounding.
+    np.testing.assert_allclose(step_response["I"], analytic(step_response["time"]), rtol=0, atol=1e-13)
+
+
+def test_ramp_input_follows_the_exact_lag():
+    """A ramp u = u0 + c t through input derivatives, inside the linear band:
+    I = u0 + c t - c T (1 - exp(-t/T)) from I(0) = u0."""
+    times = np.linspace(0.0, 10e-3, 501)
+    with ComponentFMU("CurrentLoop", {"I0": 0.5}) as loop:
+        result = loop.run(times, ["I", "mode"], inputs=lambda t: {"I_c": 0.5 + 100.0 * t},
+                          derivatives=lambda t: {"I_c": [100.0]})
+    exact = 0.5 + 100.0 * times - 100.0 * T_I * (1 - np.exp(-times / T_I))
+    assert np.all(result["mode"] == 0)
+    np.testing.assert_allclose(result["I"], exact, rtol=0, atol=1e-13)
+
+
+def test_curved_input_falls_back_to_rk4_and_stays_accurate():
+    """Second derivatives have no closed form here: RK4 at T_i/10, errors ~1e-8 of the step."""
+    times = np.linspace(0.0, 5e-3, 251)
+    with ComponentFMU("CurrentLoop") as loop:
+        result = loop.run(times, ["I"], inputs=lambda t: {"I_c": 2e4 * t * t},
+                          derivatives=lambda t: {"I_c": [4e4 * t, 4e4]})
+    # u = a t^2 in the linear band: I = a (t^2 - 2 T t + 2 T^2 (1 - exp(-t/T)))
+    a = 2e4
+    exact = a * (times**2 - 2 * T_I * times + 2 * T_I**2 * (1 - np.exp(-times / T_I)))
+    np.testing.assert_allclose(result["I"], exact, rtol=0, atol=1e-9)
 
 
 def test_exact_final_value(step_response):

@@ -44,6 +44,11 @@ double model_max_step(const Instance *inst) {
     return R(k_fwc) > 0.0 ? 0.2 * (R(m_c) + R(m_p)) / R(k_fwc) : INFINITY;
 }
 
+bool model_exact_step(Instance *inst, double t, const double *x, double h, double *x_out) {
+    (void)inst, (void)t, (void)x, (void)h, (void)x_out;
+    return false; /* no closed form: RK4 */
+}
+
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
     (void)t;
     const Friction f = friction(inst);

@@ -23,7 +23,29 @@ void model_initial_states(Instance *inst) {
     MODE = 0;
 }
 
-double model_max_step(const Instance *inst) { return R(T_i) / 10.0; }
+/* RK4 is only the fallback (inputs with second or third derivatives); T_i/10 keeps it accurate. */
+double model_max_step(const Instance *inst) {
+    double slope;
+    return input_is_linear(inst, VR_I_c, &slope) ? INFINITY : R(T_i) / 10.0;
+}
+
+/* The lag's exact solution for an input held or ramped over the step, u(t+s) = u + c s:
+ *   saturated: I(t+h) = I + mode dIdt_max h
+ *   linear:    I(t+h) = I + c h + (I - u + c T) (exp(-h/T) - 1)
+ * (expm1 keeps it accurate for h << T). */
+bool model_exact_step(Instance *inst, double t, const double *x, double h, double *x_out) {
+    (void)t;
+    double slope;
+    if (!input_is_linear(inst, VR_I_c, &slope)) return false;
+    const double I = x[S_I_mean];
+    if (MODE != 0) {
+        x_out[S_I_mean] = I + MODE * R(dIdt_max) * h;
+    } else {
+        const double T = R(T_i);
+        x_out[S_I_mean] = I + slope * h + (I - R(I_c) + slope * T) * expm1(-h / T);
+    }
+    return true;
+}
 
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
     (void)t;

@@ -52,6 +52,11 @@ double model_max_step(const Instance *inst) {
     return h;
 }
 
+bool model_exact_step(Instance *inst, double t, const double *x, double h, double *x_out) {
+    (void)inst, (void)t, (void)x, (void)h, (void)x_out;
+    return false; /* no closed form: RK4 */
+}
+
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
     (void)t;
     const Friction f = friction(inst);

@@ -135,6 +135,15 @@ void model_initial_states(Instance *inst);
  * (INFINITY when the model needs none beyond solver_step). */
 double model_max_step(const Instance *inst);
 
+/* The exact solution over [t, t+h] for the current mode, where the model has one (the
+ * inputs' Taylor polynomial from the step's start is available through input_slope());
+ * returns false to let the solver integrate with RK4. */
+bool model_exact_step(Instance *inst, double t, const double *x, double h, double *x_out);
+
+/* The first-order Taylor coefficient of Real input vr over the current step, and whether
+ * the input is at most linear there (no second or third derivative). */
+bool input_is_linear(const Instance *inst, unsigned vr, double *slope);
+
 /* dx/dt at time t for the current mode; inputs are already evaluated at t. */
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx);
 

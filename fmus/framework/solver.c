@@ -41,8 +41,24 @@ static void indicators_at(Instance *inst, double t, const double *x, double *z) 
     model_event_indicators(inst, t, x, z);
 }
 
-/* One classic Runge-Kutta step of size h from (t, x) into x_out. */
+bool input_is_linear(const Instance *inst, unsigned vr, double *slope) {
+    const DynamicState *s = &inst->s;
+    const int order = s->uder_set ? s->uder_order[vr] : 0;
+    *slope = order >= 1 ? s->taylor[vr][0] : 0.0;
+    return order <= 1;
+}
+
+static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out);
+
+/* One step of size h from (t, x) into x_out: the model's exact solution where it has one,
+ * else classic Runge-Kutta. */
 static void rk4(Instance *inst, double t, const double *x, double h, double *x_out) {
+    solver_inputs_at(inst, t);
+    if (!model_exact_step(inst, t, x, h, x_out)) rk4_step(inst, t, x, h, x_out);
+}
+
+/* One classic Runge-Kutta step of size h from (t, x) into x_out. */
+static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
     double k1[N_STATES], k2[N_STATES], k3[N_STATES], k4[N_STATES], tmp[N_STATES];
     derivatives_at(inst, t, x, k1);
     for (int j = 0; j < N_STATES; j++) tmp[j] = x[j] + 0.5 * h * k1[j];
