@@ -79,6 +79,8 @@ def _recordings(recordings: Sequence[str | Path | Recording]) -> list[Recording]
 SEARCH_DECADE = 10.0  # default search box: the given value divided and multiplied by this
 STICTION_OF = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> the Coulomb friction it is fitted relative to
 STICTION_RATIO = (1.0, 10.0)
+# RMS of the scaled residuals (1 at the truth) above which the fit says the model is missing something
+MODEL_ERROR_LIMIT = 3.0
 
 
 def _free_parameters(stage: str, experiments: list[Experiment], free: Sequence[str] | None,
@@ -160,6 +162,11 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
             raise Interrupted({**values, **shared}, stage) from None
         estimates, correlation = estimate_uncertainty(free_parameters, outcome.u, outcome.jacobian, outcome.residual)
         notes = list(outcome.messages)
+        spread = float(np.sqrt(np.mean(outcome.residual**2))) if len(outcome.residual) else 0.0
+        if spread > MODEL_ERROR_LIMIT:
+            notes.append(f"the residuals are {spread:.3g} times the sensor noise: the model misses something "
+                         f"the recordings show (or the sidecar understates the noise), and the intervals, "
+                         f"which assume sensor noise only, are too narrow")
         if outcome.failures:
             notes.append(f"{outcome.failures} simulations failed during the fit and were penalized "
                          f"(last: {residuals.last_failure or coarse.last_failure})")

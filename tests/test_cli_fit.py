@@ -49,3 +49,17 @@ def test_bad_bounds_are_exit_2(current_recording, tmp_path, capsys):
 def test_fit_all_on_an_empty_folder_is_exit_2(tmp_path, capsys):
     assert main(["fit", "all", str(tmp_path), "--out", str(tmp_path / "o.json")]) == 2
     assert "no recordings" in capsys.readouterr().err
+
+
+def test_a_model_that_misses_part_of_the_recording_is_reported(tmp_path):
+    """Fitting the current loop without its ripple harmonic to a recording that has one: the
+    residuals stand far above the ADC noise, and the result says so."""
+    from pendfmu.identification import fit_current
+    from pendfmu.virtual_rig import Experiment, steps, write_experiments
+
+    experiment = Experiment("rippled", "current", 0.012, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))
+    write_experiments(tmp_path, {"a_h": 0.05, "f_h": 3000.0}, seed=4, experiments=[experiment])
+    without = fit_current([tmp_path / "rippled.csv"], harmonic=False, seed=1, progress=False)
+    assert any("times the sensor noise" in note for note in without.notes)
+    with_ripple = fit_current([tmp_path / "rippled.csv"], seed=1, progress=False)
+    assert not any("times the sensor noise" in note for note in with_ripple.notes)
