@@ -17,7 +17,7 @@ from pathlib import Path
 from pendfmu.components import COMPONENTS, Variable
 
 # Initial states set through the sidecar's "initial" block (signal name -> parameter).
-INITIAL_STATE_PARAMETERS = {"x": "x0", "v": "v0", "phi": "phi0", "w": "w0", "I": "I0"}
+INITIAL_STATE_PARAMETERS = {"x": "x0", "v": "v0", "phi": "phi0", "w": "w0", "I": "I0", "I_mean": "I0"}
 
 
 class ParameterFileError(ValueError):

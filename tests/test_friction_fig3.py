@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 from fmpy import simulate_fmu
 
 from pendfmu.fmubuild import ensure_fmu

@@ -11,7 +11,6 @@ import subprocess
 import sys
 import time
 
-import pytest
 
 from conftest import CART_TRUTH, result_without_time
 

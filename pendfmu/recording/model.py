@@ -1,0 +1,198 @@
+"""The Recording: a time vector and signals, checked on construction; and the quantizer
+of MODEL.md's sensors."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pendfmu.recording.schema import RecordingError, SIGNAL_NAMES, _checked_values, _initial_problem, _noise_problem, _parameter_problem, _quantizer_problem, _resolution_problem, _suggest
+
+
+@dataclass(frozen=True)
+class SignalInfo:
+    """How one signal was measured. ``resolution`` is the quantization step Δ in the
+    signal's unit (None: not stated, e.g. an unquantized or unknown sensor); ``noise`` the
+    standard deviation of the sensor noise before quantization (None: not stated)."""
+
+    resolution: float | None = None
+    quantizer: str = "round"
+    noise: float | None = None
+
+    def __post_init__(self) -> None:
+        problem = (_resolution_problem(self.resolution) or _quantizer_problem(self.quantizer)
+                   or _noise_problem(self.noise))
+        if problem:
+            raise RecordingError(f"SignalInfo: {problem}")
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """One recorded run: ``time`` [s] and the signals sampled at those instants.
+
+    Signals are a ``dict`` of 1-D float64 numpy arrays rather than a pandas DataFrame:
+    the simulator and the residuals index them by name and compute with numpy; a dict
+    keeps the exact float64 values, has no index that duplicates ``time`` and cannot
+    hold a non-numeric column. :meth:`to_frame` gives a DataFrame for plotting.
+
+    The constructor checks everything :func:`read_recording` checks (names, lengths,
+    finite values, strictly increasing time, sidecar names), so an adapter for an
+    unusual file format just builds a Recording from arrays. The arrays are copied and
+    made read-only: a recording is measured data, later stages must not edit it.
+    Vector-shaped arrays (N x 1 or 1 x N, as MATLAB stores them) are flattened.
+    """
+
+    path: Path | None
+    time: np.ndarray
+    signals: dict[str, np.ndarray]
+    experiment: str = ""
+    signal_info: dict[str, SignalInfo] = field(default_factory=dict)
+    parameters: dict[str, float] = field(default_factory=dict)
+    initial: dict[str, float] = field(default_factory=dict)
+    ignored: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        path = None if self.path is None else Path(self.path)
+        object.__setattr__(self, "path", path)
+        src = self.source
+        where = _sample_locator
+        time = _as_vector(self.time, src, "time")
+        _check_time(time, src, "time", where)
+        signals: dict[str, np.ndarray] = {}
+        for name, values in dict(self.signals).items():
+            if name not in SIGNAL_NAMES:
+                raise RecordingError(f"{src}: {name!r} is not a signal name{_suggest(name, SIGNAL_NAMES)}; "
+                                     f"valid: {', '.join(SIGNAL_NAMES)}")
+            values = _as_vector(values, src, repr(name))
+            _check_length(values, time, src, repr(name))
+            _check_finite(values, src, repr(name), where)
+            signals[name] = values
+        if not signals:
+            raise RecordingError(f"{src}: no signals, only time")
+        for name, info in dict(self.signal_info).items():
+            if name not in signals:
+                raise RecordingError(f"{src}: signal_info for {name!r}, which is not a signal of this recording "
+                                     f"(signals: {', '.join(signals)})")
+            if not isinstance(info, SignalInfo):
+                raise RecordingError(f"{src}: signal_info[{name!r}] must be a SignalInfo, got {type(info).__name__}")
+        if not isinstance(self.experiment, str):
+            raise RecordingError(f"{src}: experiment must be a string, got {type(self.experiment).__name__}")
+        parameters = _checked_values(self.parameters, _parameter_problem, src, "parameters")
+        initial = _checked_values(self.initial, _initial_problem, src, "initial")
+        object.__setattr__(self, "time", _frozen(time))
+        object.__setattr__(self, "signals", {n: _frozen(v) for n, v in signals.items()})
+        object.__setattr__(self, "signal_info", dict(self.signal_info))
+        object.__setattr__(self, "parameters", parameters)
+        object.__setattr__(self, "initial", initial)
+        object.__setattr__(self, "ignored", tuple(self.ignored))
+
+    @property
+    def source(self) -> str:
+        """The file this recording came from, as error messages name it."""
+        return "<recording in memory>" if self.path is None else str(self.path)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Signal names in file order."""
+        return tuple(self.signals)
+
+    def signal(self, name: str) -> np.ndarray:
+        """The samples of signal `name`; a missing one is an error naming file and column."""
+        if name not in self.signals:
+            hint = "" if name in SIGNAL_NAMES else (
+                f"; {name!r} is not a signal name either{_suggest(name, SIGNAL_NAMES)} "
+                f"(valid: {', '.join(SIGNAL_NAMES)})")
+            raise RecordingError(f"{self.source}: no column {name!r} (columns: time, {', '.join(self.signals)}){hint}")
+        return self.signals[name]
+
+    def resolution(self, name: str) -> float | None:
+        """Quantization step of signal `name` from the sidecar; None when not stated."""
+        self.signal(name)
+        info = self.signal_info.get(name)
+        return None if info is None else info.resolution
+
+    def quantizer(self, name: str) -> str:
+        """Quantizer of signal `name` from the sidecar; ``round`` when not stated (MODEL.md)."""
+        self.signal(name)
+        info = self.signal_info.get(name)
+        return "round" if info is None else info.quantizer
+
+    def to_frame(self):
+        """The signals as a pandas DataFrame indexed by time (for plotting and inspection)."""
+        import pandas as pd
+
+        return pd.DataFrame(dict(self.signals), index=pd.Index(self.time, name="time"))
+
+
+def quantize(values, resolution: float | None, quantizer: str = "round") -> np.ndarray:
+    """What a sensor of step `resolution` reads: ``Δ·round(value/Δ)`` (MODEL.md) or
+    ``Δ·floor(value/Δ)``. ``round`` rounds halves to even (numpy's rint), which has no
+    bias for signals that swing about zero. ``resolution=None`` (not stated) returns the
+    values unchanged, so callers can pass ``recording.resolution(name)`` straight in."""
+    values = np.asarray(values, dtype=np.float64)
+    if resolution is None:
+        return values.copy()
+    problem = _resolution_problem(resolution) or _quantizer_problem(quantizer)
+    if problem:
+        raise ValueError(f"quantize: {problem}")
+    steps = np.rint(values / resolution) if quantizer == "round" else np.floor(values / resolution)
+    return resolution * steps
+
+
+def _check_time(time: np.ndarray, src: str, label: str, where: Callable[[int], str]) -> None:
+    """Time must be finite and strictly increasing; duplicates and steps back are told apart
+    because they have different causes (a logger's rounding vs. concatenated runs)."""
+    if time.size == 0:
+        raise RecordingError(f"{src}: {label} is empty")
+    _check_finite(time, src, label, where)
+    steps = np.diff(time)
+    bad = np.flatnonzero(steps <= 0)
+    if bad.size:
+        i = int(bad[0])
+        before, after = float(time[i]), float(time[i + 1])
+        if before == after:
+            raise RecordingError(f"{src}: duplicate time stamp {before!r} in {label} at {where(i)} and "
+                                 f"{where(i + 1)}; time must strictly increase")
+        raise RecordingError(f"{src}: {label} is not strictly increasing at {where(i + 1)}: {after!r} "
+                             f"after {before!r} at {where(i)}")
+
+
+def _check_finite(values: np.ndarray, src: str, label: str, where: Callable[[int], str]) -> None:
+    """No NaN or Inf: the fit compares every sample, and a gap is not a value."""
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        i = int(bad[0])
+        what = "NaN" if np.isnan(values[i]) else "Inf"
+        more = f" (and {bad.size - 1} more)" if bad.size > 1 else ""
+        raise RecordingError(f"{src}: {what} in {label} at {where(i)}{more}")
+
+
+def _check_length(values: np.ndarray, time: np.ndarray, src: str, label: str) -> None:
+    if len(values) != len(time):
+        raise RecordingError(f"{src}: {label} has {len(values)} samples, time has {len(time)}")
+
+
+def _as_vector(values, src: str, label: str) -> np.ndarray:
+    """A float64 copy of a vector-shaped array (N, N x 1, 1 x N)."""
+    try:
+        array_ = np.array(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise RecordingError(f"{src}: {label} is not numeric ({exc})") from None
+    if array_.ndim != 1:
+        if array_.ndim == 0 or sum(d > 1 for d in array_.shape) > 1:
+            raise RecordingError(f"{src}: {label} must be a vector, got shape {array_.shape}")
+        array_ = array_.reshape(-1)
+    return array_
+
+
+def _frozen(values: np.ndarray) -> np.ndarray:
+    values.setflags(write=False)
+    return values
+
+
+def _sample_locator(index: int) -> str:
+    """Sample `index` (0-based) named as MATLAB would index it."""
+    return f"sample {index + 1}"

@@ -1,0 +1,160 @@
+"""What a recording may contain: signal, parameter and state names (from the component
+tables), the sidecar's keys, and the checks of single values, with their messages."""
+
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+from collections.abc import Mapping
+
+from pendfmu.components import COMPONENTS
+
+
+def _signal_names() -> tuple[str, ...]:
+    """Inputs and outputs of all components, in table order: the only column names."""
+    names: dict[str, None] = {}
+    for component in COMPONENTS.values():
+        for var in component.variables:
+            if var.causality in ("input", "output"):
+                names[var.name] = None
+    return tuple(names)
+
+
+def _parameter_names() -> tuple[str, ...]:
+    """Parameters of all components, each once (m_p and l are shared by two)."""
+    names: dict[str, None] = {}
+    for component in COMPONENTS.values():
+        names.update(dict.fromkeys(component.parameters))
+    return tuple(names)
+
+
+def _initial_names() -> tuple[str, ...]:
+    """Signals whose initial value fixes a state: outputs that are states (x, v, phi, w)
+    and outputs computed from one state alone (I, from the current loop's I_mean)."""
+    names: dict[str, None] = {}
+    for component in COMPONENTS.values():
+        states = {v.name for v in component.states}
+        for var in component.of(causality="output"):
+            if var.state or (var.depends_on is not None and len(var.depends_on) == 1
+                             and var.depends_on[0] in states):
+                names[var.name] = None
+    return tuple(names)
+
+
+SIGNAL_NAMES: tuple[str, ...] = _signal_names()
+"""Valid column names of a recording: the components' inputs and outputs."""
+
+
+PARAMETER_NAMES: tuple[str, ...] = _parameter_names()
+"""Valid keys of the sidecar's ``parameters``."""
+
+
+INITIAL_NAMES: tuple[str, ...] = _initial_names()
+"""Valid keys of the sidecar's ``initial``: signals that are (or follow one) state."""
+
+
+QUANTIZERS: tuple[str, ...] = ("round", "floor")
+"""How a reading is quantized: ``round`` is MODEL.md's default, ``floor`` what a
+counter that truncates reports."""
+
+
+MAT_TIME_NAMES: tuple[str, ...] = ("time", "t", "tout")
+"""Names under which a .mat file's time vector is recognised (``tout``: Simulink)."""
+
+
+SIDECAR_KEYS: tuple[str, ...] = ("experiment", "signals", "parameters", "initial", "comment")
+
+
+SIGNAL_INFO_KEYS: tuple[str, ...] = ("resolution", "quantizer", "noise", "ignore")
+
+
+class RecordingError(ValueError):
+    """A recording (or its sidecar) that cannot be used; the message says where and why."""
+
+
+def _checked_values(values: Mapping[str, float], problem_of, src: str, what: str) -> dict[str, float]:
+    """Constructor-side check of parameters/initial (the sidecar reader has its own, with JSON keys)."""
+    out = {}
+    for name, value in dict(values).items():
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise RecordingError(f"{src}: {what}[{name!r}] must be a number, got {value!r}") from None
+        problem = problem_of(name, number)
+        if problem:
+            raise RecordingError(f"{src}: {what}[{name!r}]: {problem}")
+        out[name] = number
+    return out
+
+
+def _parameter_problem(name: str, value: float) -> str | None:
+    """Why `value` cannot be parameter `name` (unknown, not finite, out of range), or None.
+    m_p and l belong to two components with different ranges (the Cart takes m_p = 0,
+    pendulum removed); a value is fine if one of them accepts it."""
+    if name not in PARAMETER_NAMES:
+        return f"unknown parameter{_suggest(name, PARAMETER_NAMES)}; valid: {', '.join(PARAMETER_NAMES)}"
+    if not math.isfinite(value):
+        return f"must be finite, got {value!r}"
+    ranges = []
+    for component in COMPONENTS.values():
+        var = component.parameters.get(name)
+        if var is None:
+            continue
+        below = var.low is not None and (value < var.low or (var.low_open and value == var.low))
+        above = var.high is not None and value > var.high
+        if not (below or above):
+            return None
+        ranges.append(f"{var.allowed_range()} in {component.name}")
+    return f"{value!r} is outside the allowed range ({'; '.join(ranges)})"
+
+
+def _initial_problem(name: str, value: float) -> str | None:
+    """Why `value` cannot be the known initial value of `name`, or None."""
+    if name not in INITIAL_NAMES:
+        return f"not a state{_suggest(name, INITIAL_NAMES)}; valid: {', '.join(INITIAL_NAMES)}"
+    if not math.isfinite(value):
+        return f"must be finite, got {value!r}"
+    return None
+
+
+def _noise_problem(noise: float | None) -> str | None:
+    if noise is None:
+        return None
+    if not math.isfinite(noise) or noise < 0:
+        return f"noise {noise!r} must be a finite standard deviation >= 0"
+    return None
+
+
+def _resolution_problem(resolution) -> str | None:
+    if resolution is None:
+        return None
+    if isinstance(resolution, bool) or not isinstance(resolution, numbers.Real):
+        return f"resolution must be a number, got {resolution!r}"
+    if not (math.isfinite(resolution) and resolution > 0):
+        return f"resolution must be a positive finite number, got {resolution!r}"
+    return None
+
+
+def _quantizer_problem(quantizer) -> str | None:
+    if quantizer not in QUANTIZERS:
+        return f"quantizer must be one of {', '.join(QUANTIZERS)}, got {quantizer!r}"
+    return None
+
+
+def _suggest(name: str, valid) -> str:
+    """' (did you mean 'phi'?)' for a near miss, case first: typos are the usual cause."""
+    for candidate in valid:
+        if candidate.lower() == str(name).lower():
+            return f" (did you mean {candidate!r}?)"
+    close = difflib.get_close_matches(str(name), list(valid), n=1, cutoff=0.75)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _bytes(size: int) -> str:
+    """A file size for messages: bytes below 1 MB, else MB or GB."""
+    if size < 1024**2:
+        return f"{size} bytes"
+    if size < 1024**3:
+        return f"{size / 1024**2:.1f} MB"
+    return f"{size / 1024**3:.2f} GB"

@@ -1,0 +1,182 @@
+"""The sidecar JSON beside a recording: parsed strictly, every problem named by its key;
+and how it is combined with the columns read from the file."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pendfmu.recording.schema import RecordingError, SIDECAR_KEYS, SIGNAL_INFO_KEYS, SIGNAL_NAMES, _initial_problem, _noise_problem, _parameter_problem, _quantizer_problem, _resolution_problem, _suggest
+from pendfmu.recording.model import Recording, SignalInfo
+
+
+@dataclass
+class _Sidecar:
+    """The parsed, checked sidecar JSON (empty when there is none)."""
+
+    path: Path | None = None
+    experiment: str = ""
+    signal_info: dict[str, SignalInfo] = field(default_factory=dict)
+    ignore: set[str] = field(default_factory=set)
+    parameters: dict[str, float] = field(default_factory=dict)
+    initial: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def described(self) -> list[str]:
+        """Column names the sidecar's ``signals`` talks about."""
+        return [*self.signal_info, *self.ignore]
+
+
+def _read_sidecar(path: Path) -> _Sidecar:
+    """Parse and check the sidecar; every problem names the JSON key it is under."""
+    if not path.is_file():
+        return _Sidecar()
+    src = str(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise RecordingError(f"{src}: not UTF-8 text (byte {exc.start})") from None
+    try:
+        doc = json.loads(text, object_pairs_hook=_no_duplicate_keys)
+    except json.JSONDecodeError as exc:
+        comment = exc.pos < len(text) and text[exc.pos] == "/"
+        hint = "; JSON has no comments, put notes under \"comment\"" if comment else ""
+        raise RecordingError(f"{src}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
+                             f"{exc.msg}{hint}") from None
+    except _DuplicateKey as exc:
+        raise RecordingError(f"{src}: key {exc.args[0]!r} appears twice in one object") from None
+    if not isinstance(doc, dict):
+        raise RecordingError(f"{src}: the top level must be a JSON object, got {_json_type(doc)}")
+    for key in doc:
+        if key not in SIDECAR_KEYS:
+            raise RecordingError(f"{src}: unknown key {key!r}{_suggest(key, SIDECAR_KEYS)}; "
+                                 f"valid: {', '.join(SIDECAR_KEYS)}")
+    sidecar = _Sidecar(path=path)
+    experiment = doc.get("experiment", "")
+    if not isinstance(experiment, str):
+        raise RecordingError(f"{src}: experiment: must be a string, got {_json_type(experiment)}")
+    sidecar.experiment = experiment
+    for name, entry in _json_object(doc, "signals", src).items():
+        _read_signal_entry(sidecar, name, entry, src)
+    sidecar.parameters = _json_numbers(doc, "parameters", _parameter_problem, src)
+    sidecar.initial = _json_numbers(doc, "initial", _initial_problem, src)
+    return sidecar
+
+
+def _read_signal_entry(sidecar: _Sidecar, name: str, entry, src: str) -> None:
+    """One ``signals.<name>`` entry: either measurement info of a signal, or ``ignore``."""
+    key = f"signals.{name}"
+    if not isinstance(entry, dict):
+        raise RecordingError(f"{src}: {key}: must be an object like {{\"resolution\": 1e-3}}, got {_json_type(entry)}")
+    for sub in entry:
+        if sub not in SIGNAL_INFO_KEYS:
+            raise RecordingError(f"{src}: {key}.{sub}: unknown key{_suggest(sub, SIGNAL_INFO_KEYS)}; "
+                                 f"valid: {', '.join(SIGNAL_INFO_KEYS)}")
+    ignore = entry.get("ignore", False)
+    if not isinstance(ignore, bool):
+        raise RecordingError(f"{src}: {key}.ignore: must be true or false, got {_json_type(ignore)}")
+    if ignore:
+        if set(entry) - {"ignore"}:
+            raise RecordingError(f"{src}: {key}: an ignored column takes no resolution or quantizer")
+        sidecar.ignore.add(name)
+        return
+    if name not in SIGNAL_NAMES:
+        raise RecordingError(f"{src}: {key}: unknown signal {name!r}{_suggest(name, SIGNAL_NAMES)}; valid: "
+                             f"{', '.join(SIGNAL_NAMES)} (or mark an extra column with \"ignore\": true)")
+    resolution = entry.get("resolution")
+    if isinstance(resolution, bool) or (resolution is not None and not isinstance(resolution, (int, float))):
+        raise RecordingError(f"{src}: {key}.resolution: must be a number, got {_json_type(resolution)}")
+    problem = _resolution_problem(None if resolution is None else float(resolution))
+    if problem:
+        raise RecordingError(f"{src}: {key}.resolution: {problem}")
+    quantizer = entry.get("quantizer", "round")
+    problem = _quantizer_problem(quantizer)
+    if problem:
+        raise RecordingError(f"{src}: {key}.quantizer: {problem}")
+    noise = entry.get("noise")
+    if isinstance(noise, bool) or (noise is not None and not isinstance(noise, (int, float))):
+        raise RecordingError(f"{src}: {key}.noise: must be a number, got {_json_type(noise)}")
+    problem = _noise_problem(None if noise is None else float(noise))
+    if problem:
+        raise RecordingError(f"{src}: {key}.noise: {problem}")
+    sidecar.signal_info[name] = SignalInfo(None if resolution is None else float(resolution), quantizer,
+                                           None if noise is None else float(noise))
+
+
+def _json_object(doc: dict, key: str, src: str) -> dict:
+    """``doc[key]`` if it is an object (absent: empty)."""
+    value = doc.get(key, {})
+    if not isinstance(value, dict):
+        raise RecordingError(f"{src}: {key}: must be an object, got {_json_type(value)}")
+    return value
+
+
+def _json_numbers(doc: dict, key: str, problem_of: Callable[[str, float], str | None], src: str) -> dict[str, float]:
+    """``doc[key]`` as name -> float, each name and value checked by `problem_of`."""
+    out: dict[str, float] = {}
+    for name, value in _json_object(doc, key, src).items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise RecordingError(f"{src}: {key}.{name}: must be a number, got {_json_type(value)}")
+        problem = problem_of(name, float(value))
+        if problem:
+            raise RecordingError(f"{src}: {key}.{name}: {problem}")
+        out[name] = float(value)
+    return out
+
+
+class _DuplicateKey(Exception):
+    pass
+
+
+def _no_duplicate_keys(pairs):
+    """json's default silently keeps the last of two equal keys; a sidecar that says
+    two things about one name is a mistake worth reporting."""
+    out = {}
+    for key, value in pairs:
+        if key in out:
+            raise _DuplicateKey(key)
+        out[key] = value
+    return out
+
+
+def _json_type(value) -> str:
+    return {dict: "an object", list: "an array", str: "a string", bool: "a boolean", type(None): "null",
+            int: "a number", float: "a number"}.get(type(value), type(value).__name__)
+
+
+def _select_columns(names: list[str], sidecar: _Sidecar, src: str, noun: str) -> tuple[list[str], tuple[str, ...]]:
+    """Split the file's column names into signals to keep and columns the sidecar marks
+    ignored; anything else is an error that lists the valid names."""
+    for name in sidecar.described:
+        if name not in names:
+            raise RecordingError(f"{sidecar.path}: signals.{name}: the recording {src} has no {noun} {name!r} "
+                                 f"({noun}s: {', '.join(names)})")
+    keep, ignored, seen = [], [], set()
+    for name in names:
+        if name in seen:
+            raise RecordingError(f"{src}: {noun} {name!r} appears twice")
+        seen.add(name)
+        if name in sidecar.ignore:
+            ignored.append(name)
+        elif name in SIGNAL_NAMES:
+            keep.append(name)
+        else:
+            sidecar_name = sidecar.path or Path(src).with_suffix(".json")
+            raise RecordingError(f"{src}: {noun} {name!r} is not a signal name{_suggest(name, SIGNAL_NAMES)}; "
+                                 f"valid: {', '.join(SIGNAL_NAMES)}; to keep it out, mark it in {sidecar_name}: "
+                                 f"\"signals\": {{\"{name}\": {{\"ignore\": true}}}}")
+    if not keep:
+        raise RecordingError(f"{src}: no signals left, all {noun}s are ignored ({', '.join(ignored)})")
+    return keep, tuple(ignored)
+
+
+def _build(path: Path, time: np.ndarray, signals: dict[str, np.ndarray], sidecar: _Sidecar,
+           ignored: tuple[str, ...]) -> Recording:
+    """The Recording of a checked file and its sidecar."""
+    return Recording(path=path, time=time, signals=signals, experiment=sidecar.experiment,
+                     signal_info=sidecar.signal_info, parameters=sidecar.parameters, initial=sidecar.initial,
+                     ignored=tuple(ignored))
