@@ -87,24 +87,27 @@ def _read_signal_entry(sidecar: _Sidecar, name: str, entry, src: str) -> None:
     if name not in SIGNAL_NAMES:
         raise RecordingError(f"{src}: {key}: unknown signal {name!r}{_suggest(name, SIGNAL_NAMES)}; valid: "
                              f"{', '.join(SIGNAL_NAMES)} (or mark an extra column with \"ignore\": true)")
-    resolution = entry.get("resolution")
-    if isinstance(resolution, bool) or (resolution is not None and not isinstance(resolution, (int, float))):
-        raise RecordingError(f"{src}: {key}.resolution: must be a number, got {_json_type(resolution)}")
-    problem = _resolution_problem(None if resolution is None else float(resolution))
-    if problem:
-        raise RecordingError(f"{src}: {key}.resolution: {problem}")
+    resolution = _optional_number(entry, "resolution", _resolution_problem, f"{src}: {key}")
     quantizer = entry.get("quantizer", "round")
     problem = _quantizer_problem(quantizer)
     if problem:
         raise RecordingError(f"{src}: {key}.quantizer: {problem}")
-    noise = entry.get("noise")
-    if isinstance(noise, bool) or (noise is not None and not isinstance(noise, (int, float))):
-        raise RecordingError(f"{src}: {key}.noise: must be a number, got {_json_type(noise)}")
-    problem = _noise_problem(None if noise is None else float(noise))
+    noise = _optional_number(entry, "noise", _noise_problem, f"{src}: {key}")
+    sidecar.signal_info[name] = SignalInfo(resolution, quantizer, noise)
+
+
+def _optional_number(entry: dict, name: str, problem_of: Callable[[float | None], str | None],
+                     where: str) -> float | None:
+    """entry[name] as a float (None if absent), refused with the key named if it is not a
+    number or `problem_of` objects to it."""
+    value = entry.get(name)
+    if isinstance(value, bool) or (value is not None and not isinstance(value, (int, float))):
+        raise RecordingError(f"{where}.{name}: must be a number, got {_json_type(value)}")
+    value = None if value is None else float(value)
+    problem = problem_of(value)
     if problem:
-        raise RecordingError(f"{src}: {key}.noise: {problem}")
-    sidecar.signal_info[name] = SignalInfo(None if resolution is None else float(resolution), quantizer,
-                                           None if noise is None else float(noise))
+        raise RecordingError(f"{where}.{name}: {problem}")
+    return value
 
 
 def _json_object(doc: dict, key: str, src: str) -> dict:
