@@ -57,10 +57,11 @@ static void rk4(Instance *inst, double t, const double *x, double h, double *x_o
     if (!model_exact_step(inst, t, x, h, x_out)) rk4_step(inst, t, x, h, x_out);
 }
 
-/* One classic Runge-Kutta step of size h from (t, x) into x_out. */
+/* One classic Runge-Kutta step of size h from (t, x) into x_out; the inputs are already
+ * evaluated at t (by rk4). */
 static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
     double k1[N_STATES], k2[N_STATES], k3[N_STATES], k4[N_STATES], tmp[N_STATES];
-    derivatives_at(inst, t, x, k1);
+    model_derivatives(inst, t, x, k1);
     for (int j = 0; j < N_STATES; j++) tmp[j] = x[j] + 0.5 * h * k1[j];
     derivatives_at(inst, t + 0.5 * h, tmp, k2);
     for (int j = 0; j < N_STATES; j++) tmp[j] = x[j] + 0.5 * h * k2[j];
