@@ -51,10 +51,7 @@ def _read_sidecar(path: Path) -> _Sidecar:
         raise RecordingError(f"{src}: key {exc.args[0]!r} appears twice in one object") from None
     if not isinstance(doc, dict):
         raise RecordingError(f"{src}: the top level must be a JSON object, got {_json_type(doc)}")
-    for key in doc:
-        if key not in SIDECAR_KEYS:
-            raise RecordingError(f"{src}: unknown key {key!r}{_suggest(key, SIDECAR_KEYS)}; "
-                                 f"valid: {', '.join(SIDECAR_KEYS)}")
+    _check_keys(doc, SIDECAR_KEYS, src)
     sidecar = _Sidecar(path=path)
     experiment = doc.get("experiment", "")
     if not isinstance(experiment, str):
@@ -67,15 +64,20 @@ def _read_sidecar(path: Path) -> _Sidecar:
     return sidecar
 
 
+def _check_keys(document: dict, valid, src: str, under: str = "") -> None:
+    """Refuse a key that is not in `valid`, suggesting the nearest valid one."""
+    for key in document:
+        if key not in valid:
+            where = f"{under}.{key}: unknown key" if under else f"unknown key {key!r}"
+            raise RecordingError(f"{src}: {where}{_suggest(key, valid)}; valid: {', '.join(valid)}")
+
+
 def _read_signal_entry(sidecar: _Sidecar, name: str, entry, src: str) -> None:
     """One ``signals.<name>`` entry: either measurement info of a signal, or ``ignore``."""
     key = f"signals.{name}"
     if not isinstance(entry, dict):
         raise RecordingError(f"{src}: {key}: must be an object like {{\"resolution\": 1e-3}}, got {_json_type(entry)}")
-    for sub in entry:
-        if sub not in SIGNAL_INFO_KEYS:
-            raise RecordingError(f"{src}: {key}.{sub}: unknown key{_suggest(sub, SIGNAL_INFO_KEYS)}; "
-                                 f"valid: {', '.join(SIGNAL_INFO_KEYS)}")
+    _check_keys(entry, SIGNAL_INFO_KEYS, src, key)
     ignore = entry.get("ignore", False)
     if not isinstance(ignore, bool):
         raise RecordingError(f"{src}: {key}.ignore: must be true or false, got {_json_type(ignore)}")
