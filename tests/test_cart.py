@@ -37,6 +37,26 @@ def test_constant_drive_slides_to_the_viscous_terminal_speed():
     np.testing.assert_allclose(result["x"], x, rtol=0, atol=1e-11)
 
 
+def test_ramped_drive_follows_the_exact_solution():
+    """A self-locking cart steps by its exact solution. Under I = I0 + c t,
+    v' = A + B t - v/tau with A = (F(I0) - F_K)/m, B = F(c)/m, tau = m/k, so
+    v = tau (A - tau B)(1 - exp(-t/tau)) + tau B t; the FMU should match to rounding
+    (the former RK4 steps were 1e-10 off)."""
+    I0, slope = 2.0, 3.0
+    times = np.linspace(0, 0.5, 501)
+    with ComponentFMU("Cart") as cart:
+        result = cart.run(times, ["x", "v", "mode"], inputs=lambda t: {"I": I0 + slope * t},
+                          derivatives=lambda t: {"I": [slope]})
+    tau = MASS / 30.0
+    A, B = (I0 * FORCE_PER_AMPERE - 8.0) / MASS, slope * FORCE_PER_AMPERE / MASS
+    decayed = -np.expm1(-times / tau)
+    v = tau * (A - tau * B) * decayed + tau * B * times
+    x = tau * (A - tau * B) * (times - tau * decayed) + tau * B * times**2 / 2
+    assert np.all(result["mode"][1:] == 1)  # from the first step on (at t = 0 the input is not yet set)
+    np.testing.assert_allclose(result["v"], v, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(result["x"], x, rtol=0, atol=1e-14)
+
+
 def test_braking_stops_the_cart_and_holds_it():
     """Coasting from v0 with no drive: m dv/dt = -F_K - k v stops at
     t_stop = (m/k) ln(1 + k v0 / F_K); then stiction holds it for good."""

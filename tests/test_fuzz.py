@@ -67,7 +67,8 @@ test_fuzz_pendulum = fuzz("Pendulum")
 def test_stiff_parameters_fail_with_a_reason_instead_of_hanging():
     """Where RK4 integrates, a time constant near zero would need endless internal steps."""
     cases = (("CurrentLoop", {"T_i": 1e-300}, {"I_c": [1.0, 1e3]}),  # a curved input: RK4 fallback
-             ("Cart", {"k_fwc": 1e300}, {}), ("Pendulum", {"solver_step": 1e-300}, {}))
+             ("Cart", {"k_fwc": 1e300, "eta": 0.7}, {}),  # back-drivable: RK4
+             ("Pendulum", {"solver_step": 1e-300}, {}))
     for name, parameters, derivatives in cases:
         try:
             with ComponentFMU(name, parameters) as fmu:
@@ -85,3 +86,12 @@ def test_a_vanishing_time_constant_is_fine_where_the_step_is_exact():
         fmu.step(1e-3, {"I_c": 1.0})
         (current,) = fmu.get("I")
     assert abs(current - 1.0) < 1e-12
+
+
+def test_an_overwhelming_viscous_friction_is_fine_where_the_cart_steps_exactly():
+    """A self-locking cart steps exactly: with k_fwc = 1e300 N.s/m it breaks away but
+    cannot gather speed (v = F/k_fwc, about 1e-300 m/s)."""
+    with ComponentFMU("Cart", {"k_fwc": 1e300, "eta": 0.4}) as fmu:
+        fmu.step(1e-3, {"I": 5.0})
+        x, v, mode = fmu.get("x", "v", "mode")
+    assert mode == 1 and 0.0 < v < 1e-290 and 0.0 < x < 1e-290

@@ -13,6 +13,7 @@
 
 #include "framework.h"
 #include "friction.h"
+#include "trig_memo.h"
 
 static Friction friction(const Instance *inst) {
     const Friction f = {R(k_fwc), R(F_Kc), R(F_Sc)};
@@ -24,7 +25,9 @@ static double active_force(const Instance *inst) {
     const double drive = eta * R(k_M) * R(k_D) * R(I);
     if (eta <= 0.5) return drive; /* self-locking: the pendulum cannot push the cart */
     const double back_drive = (2.0 * eta - 1.0) / eta;
-    return drive + back_drive * R(m_p) * R(l) * (R(w) * R(w) * sin(R(phi)) - R(alpha) * cos(R(phi)));
+    double sine, cosine;
+    trig_memo_sin_cos(inst, R(phi), &sine, &cosine);
+    return drive + back_drive * R(m_p) * R(l) * (R(w) * R(w) * sine - R(alpha) * cosine);
 }
 
 bool model_check_parameters(const Instance *inst, char *why, size_t size) {
@@ -39,32 +42,86 @@ void model_initial_states(Instance *inst) {
     MODE = friction_initial_mode(&f, R(v0), active_force(inst));
 }
 
+/* Whether the exact step applies: a self-locking screw (the drive depends on I alone) and
+ * an input I held or ramped over the step. */
+static bool linear_over_step(const Instance *inst, double *slope) {
+    return R(eta) <= 0.5 && input_is_linear(inst, VR_I, slope);
+}
+
 double model_max_step(const Instance *inst) {
-    /* RK4 is stable up to 2.78 time constants; stay well inside for accuracy. */
+    /* RK4 (with the pendulum coupled) is stable up to 2.78 time constants; stay well inside for accuracy. */
     return R(k_fwc) > 0.0 ? 0.2 * (R(m_c) + R(m_p)) / R(k_fwc) : INFINITY;
 }
 
+/* phi[k-1] = phi_k(z) = sum_j z^j / (j+k)!, the functions of exponential integrators
+ * (phi_1(z) = (e^z - 1)/z, phi_{k+1}(z) = (phi_k(z) - 1/k!)/z). Near z = 0 the closed
+ * forms cancel, so phi_3 comes from its series and the others from the stable upward
+ * recurrence phi_k = 1/k! + z phi_{k+1}. */
+static void phi_functions(double z, double phi[3]) {
+    if (fabs(z) < 0.25) {
+        double term = 1.0 / 6.0, sum = term;
+        for (int j = 1; j < 20 && fabs(term) > 1e-18 * fabs(sum); j++) {
+            term *= z / (j + 3);
+            sum += term;
+        }
+        phi[2] = sum;
+        phi[1] = 0.5 + z * phi[2];
+        phi[0] = 1.0 + z * phi[1];
+    } else {
+        phi[0] = expm1(z) / z;
+        phi[1] = (phi[0] - 1.0) / z;
+        phi[2] = (phi[1] - 0.5) / z;
+    }
+}
+
+/* The exact solution for a self-locking screw and I(t+s) = I + c s. Sliding, the cart obeys
+ *     v' = A + B s - lambda v,   A = (eta k_M k_D I - F_Kc mode)/M,  B = eta k_M k_D c/M,
+ *     lambda = k_fwc/M,  M = m_c + m_p,
+ * a linear equation whose solution with z = -lambda h is
+ *     v(h) = v + h phi_1(z) (A - lambda v) + h^2 phi_2(z) B
+ *     x(h) = x + h v + h^2 phi_2(z) (A - lambda v) + h^3 phi_3(z) B.
+ * Stuck, nothing moves. */
 bool model_exact_step(Instance *inst, double t, const double *x, double h, double *x_out) {
-    (void)inst, (void)t, (void)x, (void)h, (void)x_out;
-    return false; /* no closed form: RK4 */
+    (void)t;
+    double slope;
+    if (!linear_over_step(inst, &slope)) return false; /* pendulum coupling: RK4 */
+    if (MODE == 0) {
+        x_out[S_x] = x[S_x];
+        x_out[S_v] = x[S_v];
+        return true;
+    }
+    const double M = R(m_c) + R(m_p), gain = R(eta) * R(k_M) * R(k_D) / M, lambda = R(k_fwc) / M;
+    const double A = gain * R(I) - R(F_Kc) * MODE / M, B = gain * slope;
+    const double pull = A - lambda * x[S_v];
+    double phi[3];
+    phi_functions(-lambda * h, phi);
+    x_out[S_v] = x[S_v] + h * phi[0] * pull + h * h * phi[1] * B;
+    x_out[S_x] = x[S_x] + h * x[S_v] + h * h * phi[1] * pull + h * h * h * phi[2] * B;
+    return true;
+}
+
+/* The cart's acceleration in the current mode: exactly 0 while stuck. */
+static double acceleration(const Instance *inst, const Friction *f, double v, double F_A) {
+    return MODE == 0 ? 0.0 : (F_A - friction_force(f, MODE, v, F_A)) / (R(m_c) + R(m_p));
 }
 
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
     (void)t;
     const Friction f = friction(inst);
-    const double F_A = active_force(inst);
     dx[S_x] = x[S_v];
-    dx[S_v] = MODE == 0 ? 0.0 : (F_A - friction_force(&f, MODE, x[S_v], F_A)) / (R(m_c) + R(m_p));
+    dx[S_v] = MODE == 0 ? 0.0 : acceleration(inst, &f, x[S_v], active_force(inst));
 }
 
 void model_event_indicators(const Instance *inst, double t, const double *x, double *z) {
     (void)t;
     const Friction f = friction(inst);
-    z[0] = friction_indicator(&f, MODE, x[S_v], active_force(inst));
+    const double F_A = MODE == 0 ? active_force(inst) : 0.0; /* only a stuck joint's indicator needs it */
+    z[0] = friction_indicator(&f, MODE, x[S_v], F_A);
 }
 
 bool model_update_mode(Instance *inst, double t, double *x) {
     (void)t;
+    if (friction_keeps_sliding(MODE, x[S_v])) return false;
     const Friction f = friction(inst);
     const double v = x[S_v];
     const int mode = friction_next_mode(&f, MODE, &x[S_v], active_force(inst));
@@ -74,13 +131,12 @@ bool model_update_mode(Instance *inst, double t, double *x) {
 }
 
 void model_outputs(Instance *inst, double t, const double *x) {
+    (void)t;
     const Friction f = friction(inst);
-    double dx[N_STATES];
-    model_derivatives(inst, t, x, dx);
     const double F_A = active_force(inst);
     R(x) = x[S_x];
     R(v) = x[S_v];
-    R(a) = dx[S_v];
+    R(a) = acceleration(inst, &f, x[S_v], F_A);
     R(F_A) = F_A;
     R(F_F) = friction_force(&f, MODE, x[S_v], F_A);
     FLAG(stuck) = MODE == 0;

@@ -24,10 +24,7 @@ void model_initial_states(Instance *inst) {
 }
 
 /* RK4 is only the fallback (inputs with second or third derivatives); T_i/10 keeps it accurate. */
-double model_max_step(const Instance *inst) {
-    double slope;
-    return input_is_linear(inst, VR_I_c, &slope) ? INFINITY : R(T_i) / 10.0;
-}
+double model_max_step(const Instance *inst) { return R(T_i) / 10.0; }
 
 /* The lag's exact solution for an input held or ramped over the step, u(t+s) = u + c s:
  *   saturated: I(t+h) = I + mode dIdt_max h

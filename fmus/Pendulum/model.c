@@ -11,6 +11,7 @@
 
 #include "framework.h"
 #include "friction.h"
+#include "trig_memo.h"
 
 static Friction friction(const Instance *inst) {
     const Friction f = {R(k_fwp), R(T_Kp), R(T_Sp)};
@@ -22,7 +23,9 @@ static double inertia(const Instance *inst) {
 }
 
 static double active_torque(const Instance *inst, const double *x) {
-    return R(m_p) * R(l) * (R(g) * sin(x[S_phi]) - R(a) * cos(x[S_phi]));
+    double sine, cosine;
+    trig_memo_sin_cos(inst, x[S_phi], &sine, &cosine);
+    return R(m_p) * R(l) * (R(g) * sine - R(a) * cosine);
 }
 
 bool model_check_parameters(const Instance *inst, char *why, size_t size) {
@@ -57,22 +60,28 @@ bool model_exact_step(Instance *inst, double t, const double *x, double h, doubl
     return false; /* no closed form: RK4 */
 }
 
+/* The angular acceleration in the current mode: exactly 0 while stuck. */
+static double angular_acceleration(const Instance *inst, const Friction *f, double w, double T_A) {
+    return MODE == 0 ? 0.0 : (T_A - friction_force(f, MODE, w, T_A)) / inertia(inst);
+}
+
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
     (void)t;
     const Friction f = friction(inst);
-    const double T_A = active_torque(inst, x);
     dx[S_phi] = x[S_w];
-    dx[S_w] = MODE == 0 ? 0.0 : (T_A - friction_force(&f, MODE, x[S_w], T_A)) / inertia(inst);
+    dx[S_w] = MODE == 0 ? 0.0 : angular_acceleration(inst, &f, x[S_w], active_torque(inst, x));
 }
 
 void model_event_indicators(const Instance *inst, double t, const double *x, double *z) {
     (void)t;
     const Friction f = friction(inst);
-    z[0] = friction_indicator(&f, MODE, x[S_w], active_torque(inst, x));
+    const double T_A = MODE == 0 ? active_torque(inst, x) : 0.0; /* only a stuck joint's indicator needs it */
+    z[0] = friction_indicator(&f, MODE, x[S_w], T_A);
 }
 
 bool model_update_mode(Instance *inst, double t, double *x) {
     (void)t;
+    if (friction_keeps_sliding(MODE, x[S_w])) return false;
     const Friction f = friction(inst);
     const double w = x[S_w];
     const int mode = friction_next_mode(&f, MODE, &x[S_w], active_torque(inst, x));
@@ -82,14 +91,14 @@ bool model_update_mode(Instance *inst, double t, double *x) {
 }
 
 void model_outputs(Instance *inst, double t, const double *x) {
+    (void)t;
     const Friction f = friction(inst);
-    double dx[N_STATES];
-    model_derivatives(inst, t, x, dx);
     const double T_A = active_torque(inst, x);
+    const double T_F = friction_force(&f, MODE, x[S_w], T_A);
     R(phi) = x[S_phi];
     R(w) = x[S_w];
-    R(alpha) = dx[S_w];
+    R(alpha) = angular_acceleration(inst, &f, x[S_w], T_A);
     R(T_A) = T_A;
-    R(T_F) = friction_force(&f, MODE, x[S_w], T_A);
+    R(T_F) = T_F;
     FLAG(stuck) = MODE == 0;
 }

@@ -529,11 +529,11 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     const bool had_derivatives = s->uder_set && s->uder_time == s->time;
     if (s->uder_set && !had_derivatives) s->uder_set = false;
     if (had_derivatives)
-        for (int k = 0; k < N_REAL; k++) s->u_base[k] = s->r[k];
+        for (int j = 0; j < N_INPUTS; j++) s->u_base[INPUT_VR[j]] = s->r[INPUT_VR[j]];
     if (!solver_do_step(inst, currentCommunicationPoint + communicationStepSize))
         return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
     s->uder_set = false;
-    for (int k = 0; k < N_REAL; k++) s->u_base[k] = s->r[k];
+    for (int j = 0; j < N_INPUTS; j++) s->u_base[INPUT_VR[j]] = s->r[INPUT_VR[j]];
     model_outputs(inst, s->time, s->x);
     s->outputs_valid = true;
     return fmi2OK;

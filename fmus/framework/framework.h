@@ -91,6 +91,12 @@ typedef struct {
     FmuPhase phase;
     bool outputs_valid;
     long event_count;
+    /* The RK4 step limit, min(solver_step, model_max_step()): fixed with the parameters,
+     * so computed once at initialization. */
+    double h_rk4;
+    /* A model's memo of an expensive pure function (the sines and cosines of trig_memo.h).
+     * It lives in the state, so a restored FMU state repeats a run to the bit. */
+    double memo[4];
 } DynamicState;
 
 typedef struct {
@@ -131,8 +137,8 @@ bool model_check_parameters(const Instance *inst, char *why, size_t size);
 /* Set the continuous states from the parameters (x0, v0, ...). */
 void model_initial_states(Instance *inst);
 
-/* A step that the fixed-step integrator must not exceed for accuracy and stability
- * (INFINITY when the model needs none beyond solver_step). */
+/* A step that RK4 must not exceed for accuracy and stability (INFINITY when the model needs
+ * none beyond solver_step). Depends on parameters only: evaluated once, at initialization. */
 double model_max_step(const Instance *inst);
 
 /* The exact solution over [t, t+h] for the current mode, where the model has one (the

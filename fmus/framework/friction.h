@@ -47,6 +47,10 @@ static inline int friction_initial_mode(const Friction *f, double v, double F_A)
     return fabs(F_A) <= friction_threshold(f) ? 0 : sign_of(F_A);
 }
 
+/* Whether a sliding joint simply goes on sliding: then no event can change its mode, and
+ * the active force (trigonometry, for the pendulum) need not be evaluated. */
+static inline bool friction_keeps_sliding(int mode, double v) { return mode * v > 0.0; }
+
 /* Mode after an event. A sliding joint whose speed reached zero sticks, or reverses if
  * the active force exceeds the threshold; a stuck joint breaks away in the direction of
  * F_A. *v is set to exactly 0 whenever the joint stops. */

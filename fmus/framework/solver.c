@@ -1,7 +1,8 @@
 /* The hybrid integrator behind fmi2DoStep.
  *
  * Classic RK4 on a fixed internal step that divides the communication interval evenly,
- * so every step lands exactly on the communication point. After each RK4 step the event
+ * so every step lands exactly on the communication point. Where the model has an exact
+ * solution for the step (model_exact_step), it replaces RK4 and spans the whole interval. After each RK4 step the event
  * indicators are compared with their values at the start of the step; an indicator that
  * went from >= 0 to < 0 marks a mode change inside the step. Its time is located by
  * Illinois (modified regula falsi) root finding on g(tau) = z(t + tau, RK4(x, tau)), the
@@ -112,9 +113,9 @@ static bool indicators_consistent(const double *z) {
     return true;
 }
 
-/* Update the mode at time t until it is consistent with the states and inputs. */
-bool solver_event_iteration(Instance *inst, double t) {
-    double z[N_EVENT_INDICATORS];
+/* Update the mode at time t until it is consistent with the states and inputs; z receives
+ * the indicators of the consistent mode. */
+static bool event_iteration(Instance *inst, double t, double *z) {
     for (int iter = 0; iter < MAX_EVENT_ITERATIONS; iter++) {
         solver_inputs_at(inst, t);
         const int old_mode = MODE;
@@ -132,7 +133,13 @@ bool solver_event_iteration(Instance *inst, double t) {
     return false;
 }
 
+bool solver_event_iteration(Instance *inst, double t) {
+    double z[N_EVENT_INDICATORS];
+    return event_iteration(inst, t, z);
+}
+
 bool solver_initialize(Instance *inst) {
+    inst->s.h_rk4 = fmin(R(solver_step), model_max_step(inst));
     model_initial_states(inst);
     inst->s.r[VR_t_mode] = inst->s.time;
     return solver_event_iteration(inst, inst->s.time);
@@ -147,25 +154,30 @@ static bool all_finite(const double *x) {
 /* Integrate from the current time to t_end. Returns false (after logging) on failure. */
 bool solver_do_step(Instance *inst, double t_end) {
     DynamicState *s = &inst->s;
-    const double h_max = fmin(R(solver_step), model_max_step(inst));
-    double t = s->time;
-    if (!(h_max > 0.0) || (t_end - t) / h_max > MAX_INTERNAL_STEPS) {
-        log_error(inst, "t = %.12g s: a step of %g s needs internal steps of %g s (more than %.0f): the "
-                  "parameters make the model too stiff, or solver_step is too small", t, t_end - t, h_max,
-                  MAX_INTERNAL_STEPS);
-        return false;
-    }
+    const double t_start = s->time;
+    double t = t_start;
     double z0[N_EVENT_INDICATORS], z1[N_EVENT_INDICATORS], x1[N_STATES];
 
     /* Inputs may have jumped at the communication point: make the mode consistent. */
-    if (!solver_event_iteration(inst, t)) return false;
-    indicators_at(inst, t, s->x, z0);
+    if (!event_iteration(inst, t, z0)) return false;
 
     while (t < t_end) {
         const double remaining = t_end - t;
-        const double n_steps = ceil(remaining / h_max * (1.0 - 1e-12));
-        const double h = n_steps <= 1.0 ? remaining : remaining / n_steps;
-        rk4(inst, t, s->x, h, x1);
+        /* An exact solution is accurate over any length: it goes to t_end (or the next event)
+         * at once. RK4 takes equal steps of at most h_rk4. */
+        double h = remaining;
+        solver_inputs_at(inst, t);
+        if (!model_exact_step(inst, t, s->x, h, x1)) {
+            const double n_steps = ceil(remaining / s->h_rk4 * (1.0 - 1e-12));
+            if (!(s->h_rk4 > 0.0) || !(n_steps <= MAX_INTERNAL_STEPS)) {
+                log_error(inst, "t = %.12g s: a step of %g s needs internal steps of %g s (more than %.0f): the "
+                          "parameters make the model too stiff, or solver_step is too small", t, t_end - t_start,
+                          s->h_rk4, MAX_INTERNAL_STEPS);
+                return false;
+            }
+            if (n_steps > 1.0) h = remaining / n_steps;
+            rk4_step(inst, t, s->x, h, x1);
+        }
         indicators_at(inst, t + h, x1, z1);
 
         double tau = h;
@@ -188,8 +200,7 @@ bool solver_do_step(Instance *inst, double t_end) {
             return false;
         }
         if (which >= 0) {
-            if (!solver_event_iteration(inst, t)) return false;
-            indicators_at(inst, t, s->x, z0);
+            if (!event_iteration(inst, t, z0)) return false;
         } else {
             memcpy(z0, z1, sizeof z0);
         }
