@@ -15,6 +15,9 @@
 #include "friction.h"
 #include "trig_memo.h"
 
+/* Memo slots: sin/cos of phi (back-drivable screw); phi functions of the last exact step */
+enum { MEMO_TRIG = 0, MEMO_STEP = TRIG_MEMO_SLOTS, MEMO_PHI = MEMO_STEP + 1 };
+
 static Friction friction(const Instance *inst) {
     const Friction f = {R(k_fwc), R(F_Kc), R(F_Sc)};
     return f;
@@ -25,9 +28,9 @@ static double active_force(const Instance *inst) {
     const double drive = eta * R(k_M) * R(k_D) * R(I);
     if (eta <= 0.5) return drive; /* self-locking: the pendulum cannot push the cart */
     const double back_drive = (2.0 * eta - 1.0) / eta;
-    double sine, cosine;
-    trig_memo_sin_cos(inst, R(phi), &sine, &cosine);
-    return drive + back_drive * R(m_p) * R(l) * (R(w) * R(w) * sine - R(alpha) * cosine);
+    const double m_l = back_drive * R(m_p) * R(l);
+    /* A m_p l (w^2 sin phi - alpha cos phi) */
+    return drive + trig_memo_wave(inst, MEMO_TRIG, R(phi), m_l * R(w) * R(w), -m_l * R(alpha));
 }
 
 bool model_check_parameters(const Instance *inst, char *why, size_t size) {
@@ -58,10 +61,14 @@ double model_max_step(const Instance *inst) {
  * forms cancel, so phi_3 comes from its series and the others from the stable upward
  * recurrence phi_k = 1/k! + z phi_{k+1}. */
 static void phi_functions(double z, double phi[3]) {
+    static const double reciprocal[24] = {0, 1.0, 1.0 / 2, 1.0 / 3, 1.0 / 4, 1.0 / 5, 1.0 / 6, 1.0 / 7, 1.0 / 8,
+                                          1.0 / 9, 1.0 / 10, 1.0 / 11, 1.0 / 12, 1.0 / 13, 1.0 / 14, 1.0 / 15,
+                                          1.0 / 16, 1.0 / 17, 1.0 / 18, 1.0 / 19, 1.0 / 20, 1.0 / 21, 1.0 / 22,
+                                          1.0 / 23};
     if (fabs(z) < 0.25) {
         double term = 1.0 / 6.0, sum = term;
         for (int j = 1; j < 20 && fabs(term) > 1e-18 * fabs(sum); j++) {
-            term *= z / (j + 3);
+            term *= z * reciprocal[j + 3];
             sum += term;
         }
         phi[2] = sum;
@@ -72,6 +79,16 @@ static void phi_functions(double z, double phi[3]) {
         phi[1] = (phi[0] - 1.0) / z;
         phi[2] = (phi[1] - 0.5) / z;
     }
+}
+
+/* The phi functions for a step h (z = -lambda h), memoized: communication steps repeat. */
+static const double *phi_functions_of_step(Instance *inst, double lambda, double h) {
+    double *memo = inst->s.memo;
+    if (!(memo[MEMO_STEP] == h && h != 0.0)) {
+        memo[MEMO_STEP] = h;
+        phi_functions(-lambda * h, &memo[MEMO_PHI]);
+    }
+    return &memo[MEMO_PHI];
 }
 
 /* The exact solution for a self-locking screw and I(t+s) = I + c s. Sliding, the cart obeys
@@ -93,8 +110,7 @@ bool model_exact_step(Instance *inst, double t, const double *x, double h, doubl
     const double M = R(m_c) + R(m_p), gain = R(eta) * R(k_M) * R(k_D) / M, lambda = R(k_fwc) / M;
     const double A = gain * R(I) - R(F_Kc) * MODE / M, B = gain * slope;
     const double pull = A - lambda * x[S_v];
-    double phi[3];
-    phi_functions(-lambda * h, phi);
+    const double *phi = phi_functions_of_step(inst, lambda, h);
     x_out[S_v] = x[S_v] + h * phi[0] * pull + h * h * phi[1] * B;
     x_out[S_x] = x[S_x] + h * x[S_v] + h * h * phi[1] * pull + h * h * h * phi[2] * B;
     return true;

@@ -26,6 +26,17 @@ void model_initial_states(Instance *inst) {
 /* RK4 is only the fallback (inputs with second or third derivatives); T_i/10 keeps it accurate. */
 double model_max_step(const Instance *inst) { return R(T_i) / 10.0; }
 
+/* expm1(-h/T_i) for a step h, memoized (memo[0]: h, memo[1]: value): communication
+ * steps repeat, and T_i is fixed once initialized. */
+static double decay_of_step(Instance *inst, double h) {
+    double *memo = inst->s.memo;
+    if (!(memo[0] == h && h != 0.0)) {
+        memo[0] = h;
+        memo[1] = expm1(-h / R(T_i));
+    }
+    return memo[1];
+}
+
 /* The lag's exact solution for an input held or ramped over the step, u(t+s) = u + c s:
  *   saturated: I(t+h) = I + mode dIdt_max h
  *   linear:    I(t+h) = I + c h + (I - u + c T) (exp(-h/T) - 1)
@@ -38,8 +49,7 @@ bool model_exact_step(Instance *inst, double t, const double *x, double h, doubl
     if (MODE != 0) {
         x_out[S_I_mean] = I + MODE * R(dIdt_max) * h;
     } else {
-        const double T = R(T_i);
-        x_out[S_I_mean] = I + slope * h + (I - R(I_c) + slope * T) * expm1(-h / T);
+        x_out[S_I_mean] = I + slope * h + (I - R(I_c) + slope * R(T_i)) * decay_of_step(inst, h);
     }
     return true;
 }

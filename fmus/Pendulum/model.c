@@ -23,9 +23,8 @@ static double inertia(const Instance *inst) {
 }
 
 static double active_torque(const Instance *inst, const double *x) {
-    double sine, cosine;
-    trig_memo_sin_cos(inst, x[S_phi], &sine, &cosine);
-    return R(m_p) * R(l) * (R(g) * sine - R(a) * cosine);
+    const double m_l = R(m_p) * R(l);
+    return trig_memo_wave(inst, 0, x[S_phi], m_l * R(g), -m_l * R(a)); /* m l (g sin phi - a cos phi) */
 }
 
 bool model_check_parameters(const Instance *inst, char *why, size_t size) {
@@ -62,7 +61,9 @@ bool model_exact_step(Instance *inst, double t, const double *x, double h, doubl
 
 /* The angular acceleration in the current mode: exactly 0 while stuck. */
 static double angular_acceleration(const Instance *inst, const Friction *f, double w, double T_A) {
-    return MODE == 0 ? 0.0 : (T_A - friction_force(f, MODE, w, T_A)) / inertia(inst);
+    /* times 1/J: the division does not depend on the state, so it stays off the chain of
+     * dependent operations from one RK4 stage to the next */
+    return MODE == 0 ? 0.0 : (T_A - friction_force(f, MODE, w, T_A)) * (1.0 / inertia(inst));
 }
 
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {

@@ -490,8 +490,10 @@ fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference
                         value[k]);
     }
     if (!inst->s.uder_set || inst->s.uder_time != inst->s.time) {
-        memset(inst->s.taylor, 0, sizeof inst->s.taylor); /* derivatives of an earlier point are void */
-        memset(inst->s.uder_order, 0, sizeof inst->s.uder_order);
+        for (int j = 0; j < N_INPUTS; j++) { /* derivatives of an earlier point are void */
+            memset(inst->s.taylor[INPUT_VR[j]], 0, sizeof inst->s.taylor[0]);
+            inst->s.uder_order[INPUT_VR[j]] = 0;
+        }
         inst->s.uder_time = inst->s.time;
         inst->s.uder_set = true;
     }

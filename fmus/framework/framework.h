@@ -34,6 +34,9 @@
 
 #define PI 3.14159265358979323846
 
+/* Slots of DynamicState.memo */
+#define MEMO_SIZE 12
+
 typedef enum {
     CAUSALITY_PARAMETER,
     CAUSALITY_INPUT,
@@ -94,9 +97,10 @@ typedef struct {
     /* The RK4 step limit, min(solver_step, model_max_step()): fixed with the parameters,
      * so computed once at initialization. */
     double h_rk4;
-    /* A model's memo of an expensive pure function (the sines and cosines of trig_memo.h).
-     * It lives in the state, so a restored FMU state repeats a run to the bit. */
-    double memo[4];
+    /* A model's memos of expensive pure functions (the sines and cosines of trig_memo.h,
+     * exponentials of the last step size). They live in the state, so a restored FMU
+     * state repeats a run to the bit. Each model lays out its own slots. */
+    double memo[MEMO_SIZE];
 } DynamicState;
 
 typedef struct {
