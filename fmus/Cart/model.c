@@ -15,7 +15,7 @@
 #include "friction.h"
 #include "trig_memo.h"
 
-/* Memo slots: sin/cos of phi (back-drivable screw); phi functions of the last exact step */
+/* Memo slots: the trigonometry of phi (back-drivable screw); phi functions of the last exact step */
 enum { MEMO_TRIG = 0, MEMO_STEP = TRIG_MEMO_SLOTS, MEMO_PHI = MEMO_STEP + 1 };
 
 static Friction friction(const Instance *inst) {
@@ -81,7 +81,8 @@ static void phi_functions(double z, double phi[3]) {
     }
 }
 
-/* The phi functions for a step h (z = -lambda h), memoized: communication steps repeat. */
+/* The phi functions for a step h (z = -lambda h), memoized by h: communication steps repeat,
+ * and lambda is fixed once the parameters are. */
 static const double *phi_functions_of_step(Instance *inst, double lambda, double h) {
     double *memo = inst->s.memo;
     if (!(memo[MEMO_STEP] == h && h != 0.0)) {

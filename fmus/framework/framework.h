@@ -145,9 +145,10 @@ void model_initial_states(Instance *inst);
  * none beyond solver_step). Depends on parameters only: evaluated once, at initialization. */
 double model_max_step(const Instance *inst);
 
-/* The exact solution over [t, t+h] for the current mode, where the model has one (the
- * inputs' Taylor polynomial from the step's start is available through input_slope());
- * returns false to let the solver integrate with RK4. */
+/* The exact solution over [t, t+h] for the current mode, where the model has one (inputs
+ * are evaluated at t; whether one is held or ramped, and its slope, come from
+ * input_is_linear()); returns false to let the solver integrate with RK4. An exact step is
+ * taken over the whole remaining communication interval (solver_step bounds RK4 only). */
 bool model_exact_step(Instance *inst, double t, const double *x, double h, double *x_out);
 
 /* The first-order Taylor coefficient of Real input vr over the current step, and whether
