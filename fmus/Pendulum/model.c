@@ -22,6 +22,20 @@ static double inertia(const Instance *inst) {
     return R(J_p) > 0.0 ? R(J_p) : 4.0 / 3.0 * R(m_p) * R(l) * R(l);
 }
 
+/* The equation of motion divided by J, for the RK4 stages:
+ *     alpha = GRAVITY sin phi - ARM a cos phi - VISCOUS w - COULOMB mode
+ * with GRAVITY = m l g / J, ARM = m l / J, VISCOUS = k_fwp / J, COULOMB = T_Kp / J. */
+enum { D_GRAVITY, D_ARM, D_VISCOUS, D_COULOMB };
+
+static void derive_constants(Instance *inst) {
+    double *d = inst->s.derived;
+    const double J = inertia(inst);
+    d[D_GRAVITY] = R(m_p) * R(l) * R(g) / J;
+    d[D_ARM] = R(m_p) * R(l) / J;
+    d[D_VISCOUS] = R(k_fwp) / J;
+    d[D_COULOMB] = R(T_Kp) / J;
+}
+
 static double active_torque(const Instance *inst, const double *x) {
     const double m_l = R(m_p) * R(l);
     return trig_memo_wave(inst, 0, x[S_phi], m_l * R(g), -m_l * R(a)); /* m l (g sin phi - a cos phi) */
@@ -43,6 +57,7 @@ void model_initial_states(Instance *inst) {
     const Friction f = friction(inst);
     inst->s.x[S_phi] = R(phi0);
     inst->s.x[S_w] = R(w0);
+    derive_constants(inst);
     MODE = friction_initial_mode(&f, R(w0), active_torque(inst, inst->s.x));
 }
 
@@ -68,9 +83,15 @@ static double angular_acceleration(const Instance *inst, const Friction *f, doub
 
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
     (void)t;
-    const Friction f = friction(inst);
+    const double *d = inst->s.derived;
     dx[S_phi] = x[S_w];
-    dx[S_w] = MODE == 0 ? 0.0 : angular_acceleration(inst, &f, x[S_w], active_torque(inst, x));
+    if (MODE == 0) {
+        dx[S_w] = 0.0; /* stuck */
+        return;
+    }
+    /* angular_acceleration() in the form divided by J (the same friction law, sliding) */
+    dx[S_w] = trig_memo_wave(inst, 0, x[S_phi], d[D_GRAVITY], -d[D_ARM] * R(a)) - d[D_VISCOUS] * x[S_w] -
+              d[D_COULOMB] * MODE;
 }
 
 void model_event_indicators(const Instance *inst, double t, const double *x, double *z) {

@@ -36,6 +36,8 @@
 
 /* Slots of DynamicState.memo */
 #define MEMO_SIZE 12
+/* Slots of DynamicState.derived */
+#define DERIVED_SIZE 8
 
 typedef enum {
     CAUSALITY_PARAMETER,
@@ -101,6 +103,9 @@ typedef struct {
      * exponentials of the last step size). They live in the state, so a restored FMU
      * state repeats a run to the bit. Each model lays out its own slots. */
     double memo[MEMO_SIZE];
+    /* Constants a model derives from its parameters in model_initial_states (parameters are
+     * fixed from then on), so that the equations evaluated at every RK4 stage stay short. */
+    double derived[DERIVED_SIZE];
 } DynamicState;
 
 typedef struct {
@@ -138,7 +143,8 @@ bool solver_initialize(Instance *inst);
  * message naming the parameters into `why` and returns false. */
 bool model_check_parameters(const Instance *inst, char *why, size_t size);
 
-/* Set the continuous states from the parameters (x0, v0, ...). */
+/* Set the continuous states from the parameters (x0, v0, ...), and derive the constants of
+ * DynamicState.derived. Called once, at initialization. */
 void model_initial_states(Instance *inst);
 
 /* A step that RK4 must not exceed for accuracy and stability (INFINITY when the model needs
