@@ -62,6 +62,29 @@ def _dask_costs(candidates: list[np.ndarray], residuals: Residuals) -> list[tupl
     return results
 
 
+PROFILER_CALLBACKS = ("profile", "profile-cycle")
+
+
+def _pause_profiler(dask_worker) -> list[str]:
+    """Stop a Dask worker's statistical profiler for the duration of a fit. It samples the
+    running task's stack every 10 ms on the worker's event loop, which took 10-40 % of a
+    busy worker's core from the simulations (2 workers: 1.50x one instead of 1.73x).
+    Returns the callbacks it stopped, for _resume_profiler."""
+    stopped = []
+    for name in PROFILER_CALLBACKS:
+        callback = dask_worker.periodic_callbacks.get(name)
+        if callback is not None and callback.is_running():
+            callback.stop()
+            stopped.append(name)
+    return stopped
+
+
+def _resume_profiler(names: list[str], dask_worker=None) -> None:
+    for name in names:
+        if name in dask_worker.periodic_callbacks:
+            dask_worker.periodic_callbacks[name].start()
+
+
 @dataclass
 class GlobalOptions:
     enabled: bool = True
@@ -100,6 +123,7 @@ class _Evaluator:
             except ImportError:
                 raise RuntimeError("--scheduler needs Dask: pip install 'pendfmu[distributed]'") from None
             self.client = Client(scheduler, set_as_default=False)
+            self.paused = self.client.run(_pause_profiler)  # worker address -> callbacks stopped
             self.remote = self.client.scatter(residuals, broadcast=True, hash=False)
         elif workers > 1:
             context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
@@ -140,6 +164,9 @@ class _Evaluator:
             self.pool.terminate()
             self.pool.join()
         if self.client is not None:
+            for worker, names in self.paused.items():
+                if names:
+                    self.client.run(_resume_profiler, names, workers=[worker])
             self.client.close()
 
 

@@ -224,7 +224,7 @@ def dask_scaling(stage: str = "pendulum") -> None:
         coarse = {**values, **({"solver_step": spec.coarse_solver_step} if spec.coarse_solver_step else {})}
         residuals = Residuals(experiments, free, coarse, decimate=spec.coarse_decimate)  # as fit() builds it
         times = {}
-        for workers in (1, 2):
+        for workers in (1, 2):  # default workers: the fit pauses their profiler itself
             with LocalCluster(n_workers=workers, threads_per_worker=1, host="127.0.0.1",
                               dashboard_address=None) as cluster:
                 options = GlobalOptions(scheduler=cluster.scheduler_address)

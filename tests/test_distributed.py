@@ -54,3 +54,30 @@ def test_workers_keep_their_fmu_instances_across_tasks(cluster, cart_recording):
     assert len(counts) == 2  # one copy on each worker
     assert sum(evaluations for evaluations, _ in counts) == 8
     assert all(fmus == 2 for evaluations, fmus in counts if evaluations)  # CurrentLoop and Cart, made once
+
+
+def test_a_fit_pauses_the_workers_profiler_and_restores_it(cluster, cart_recording):
+    """Dask's statistical profiler samples a busy worker every 10 ms and slowed the
+    simulations by 10-40 %: the evaluator stops it on every worker and starts it again."""
+    from distributed import Client
+
+    from pendfmu.experiment import make_experiment
+    from pendfmu.identification import _free_parameters, rig_defaults
+    from pendfmu.optimizer import PROFILER_CALLBACKS, _Evaluator
+    from pendfmu.residuals import Residuals
+    from pendfmu.recording import read_recording
+
+    def running(dask_worker):
+        return [dask_worker.periodic_callbacks[name].is_running() for name in PROFILER_CALLBACKS]
+
+    values = rig_defaults()
+    experiment = make_experiment(read_recording(cart_recording), "cart", values)
+    residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
+    with Client(cluster.scheduler_address, set_as_default=False) as client:
+        assert all(all(states) for states in client.run(running).values())
+        evaluator = _Evaluator(residuals, 1, {}, cluster.scheduler_address)
+        try:
+            assert not any(any(states) for states in client.run(running).values())
+        finally:
+            evaluator.close()
+        assert all(all(states) for states in client.run(running).values())
