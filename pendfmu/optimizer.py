@@ -19,8 +19,6 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-import signal
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,60 +28,7 @@ from threadpoolctl import threadpool_limits
 from scipy.optimize import differential_evolution, least_squares
 
 from pendfmu.residuals import Residuals
-
-_WORKER_RESIDUALS: Residuals | None = None
-
-
-def _worker_start(residuals: Residuals) -> None:
-    global _WORKER_RESIDUALS
-    _WORKER_RESIDUALS = residuals
-    threadpool_limits(1, user_api="blas")  # for the life of the worker process
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
-
-
-def _worker_cost(u: np.ndarray) -> tuple[float, int]:
-    before = _WORKER_RESIDUALS.failures
-    cost = _WORKER_RESIDUALS.sum_of_squares(u)
-    return cost, _WORKER_RESIDUALS.failures - before
-
-
-_DASK_LOCK = threading.Lock()
-
-
-def _dask_costs(candidates: list[np.ndarray], residuals: Residuals) -> list[tuple[float, int]]:
-    """On a Dask worker, a chunk of candidates: `residuals` was scattered once, so the worker
-    keeps one copy and its FMU instances across tasks (reset per run); the lock keeps a
-    multi-threaded worker from stepping those instances from two threads at once."""
-    results = []
-    with _DASK_LOCK, threadpool_limits(1, user_api="blas"):
-        for u in candidates:
-            before = residuals.failures
-            results.append((residuals.sum_of_squares(u), residuals.failures - before))
-    return results
-
-
-PROFILER_CALLBACKS = ("profile", "profile-cycle")
-
-
-def _pause_profiler(dask_worker) -> list[str]:
-    """Stop a Dask worker's statistical profiler for the duration of a fit. It samples the
-    running task's stack every 10 ms on the worker's event loop, which took 10-40 % of a
-    busy worker's core from the simulations (2 workers: 1.50x one instead of 1.73x).
-    Returns the callbacks it stopped, for _resume_profiler."""
-    stopped = []
-    for name in PROFILER_CALLBACKS:
-        callback = dask_worker.periodic_callbacks.get(name)
-        if callback is not None and callback.is_running():
-            callback.stop()
-            stopped.append(name)
-    return stopped
-
-
-def _resume_profiler(names: list[str], dask_worker=None) -> None:
-    for name in names:
-        if name in dask_worker.periodic_callbacks:
-            dask_worker.periodic_callbacks[name].start()
-
+from pendfmu.workers import dask_costs, pause_profiler, resume_profiler, worker_cost, worker_start
 
 @dataclass
 class GlobalOptions:
@@ -123,11 +68,11 @@ class _Evaluator:
             except ImportError:
                 raise RuntimeError("--scheduler needs Dask: pip install 'pendfmu[distributed]'") from None
             self.client = Client(scheduler, set_as_default=False)
-            self.paused = self.client.run(_pause_profiler)  # worker address -> callbacks stopped
+            self.paused = self.client.run(pause_profiler)  # worker address -> callbacks stopped
             self.remote = self.client.scatter(residuals, broadcast=True, hash=False)
         elif workers > 1:
             context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
-            self.pool = context.Pool(workers, initializer=_worker_start, initargs=(residuals,))
+            self.pool = context.Pool(workers, initializer=worker_start, initargs=(residuals,))
 
     def __call__(self, function: Callable, candidates) -> list[float]:
         candidates = [np.asarray(c, dtype=float) for c in candidates]
@@ -146,14 +91,14 @@ class _Evaluator:
             workers = sorted(self.client.scheduler_info()["workers"])
             chunks = [c for c in np.array_split(np.arange(len(candidates)), max(1, min(len(candidates), len(workers))))
                       if len(c)]
-            futures = [self.client.submit(_dask_costs, [candidates[k] for k in chunk], self.remote, pure=False,
+            futures = [self.client.submit(dask_costs, [candidates[k] for k in chunk], self.remote, pure=False,
                                           workers=[worker], allow_other_workers=True)
                        for chunk, worker in zip(chunks, workers)]
             for future in futures:
                 yield from future.result()
             return
         if self.pool is not None:
-            yield from self.pool.imap(_worker_cost, candidates)
+            yield from self.pool.imap(worker_cost, candidates)
             return
         for u in candidates:
             before = self.residuals.failures
@@ -166,7 +111,7 @@ class _Evaluator:
         if self.client is not None:
             for worker, names in self.paused.items():
                 if names:
-                    self.client.run(_resume_profiler, names, workers=[worker])
+                    self.client.run(resume_profiler, names, workers=[worker])
             self.client.close()
 
 

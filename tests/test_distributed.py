@@ -34,7 +34,7 @@ def test_workers_keep_their_fmu_instances_across_tasks(cluster, cart_recording):
 
     from pendfmu.experiment import make_experiment
     from pendfmu.identification import _free_parameters, rig_defaults
-    from pendfmu.optimizer import _dask_costs
+    from pendfmu.workers import dask_costs
     from pendfmu.recording import read_recording
     from pendfmu.residuals import Residuals
 
@@ -43,7 +43,7 @@ def test_workers_keep_their_fmu_instances_across_tasks(cluster, cart_recording):
     residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
     with Client(cluster.scheduler_address, set_as_default=False) as client:
         remote = client.scatter(residuals, broadcast=True, hash=False)
-        client.gather(client.map(_dask_costs, [[[0.5, 0.5, 0.5, 0.2]] * 2] * 4, residuals=remote, pure=False))
+        client.gather(client.map(dask_costs, [[[0.5, 0.5, 0.5, 0.2]] * 2] * 4, residuals=remote, pure=False))
 
         def instances(dask_worker):
             copies = [v for v in dask_worker.data.values() if isinstance(v, Residuals)]
@@ -63,9 +63,10 @@ def test_a_fit_pauses_the_workers_profiler_and_restores_it(cluster, cart_recordi
 
     from pendfmu.experiment import make_experiment
     from pendfmu.identification import _free_parameters, rig_defaults
-    from pendfmu.optimizer import PROFILER_CALLBACKS, _Evaluator
+    from pendfmu.optimizer import _Evaluator
     from pendfmu.residuals import Residuals
     from pendfmu.recording import read_recording
+    from pendfmu.workers import PROFILER_CALLBACKS
 
     def running(dask_worker):
         return [dask_worker.periodic_callbacks[name].is_running() for name in PROFILER_CALLBACKS]
