@@ -99,13 +99,31 @@ typedef struct {
     long iterations;
     double fail_time;
     int fail_kind; /* 0 none, 1 fmi2 call failed, 2 a coupled step did not converge, 3 out of memory,
-                      4 the connected signals are not consistent at the start */
+                      4 the connected signals are not consistent at the start, 5 a unit has more
+                      than MAX_PORTS inputs */
     int fail_unit;
     double last_change;
 } System;
 
 #define MAX_SIGNALS 256
 #define MAX_PORTS 64
+
+/* Where each unit's inputs come from, in the order set_inputs sets them (drives, then
+ * links: the Python master's order), and which links each group publishes. Worked out
+ * once per run instead of at every step. */
+typedef struct {
+    size_t n;
+    unsigned char from_link[MAX_PORTS]; /* 1: links[index], 0: drives[index] */
+    size_t index[MAX_PORTS];
+    fmi2ValueReference vr[MAX_PORTS];
+} Ports;
+
+typedef struct {
+    Ports *ports;          /* per unit */
+    size_t *published;     /* links whose source is in a group, group after group */
+    size_t *publish_start; /* n_groups + 1 offsets into published */
+    unsigned char *coupled; /* per group: its members feed each other */
+} Plan;
 
 static int in_group(const System *s, size_t g, int unit) {
     for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
@@ -119,35 +137,63 @@ static int get_one(const System *s, int unit, fmi2ValueReference vr, double *val
 }
 
 /* Set every input of `unit` at the step's start, with slopes towards `end`. */
-static int set_inputs(const System *s, int unit, size_t k, const double *start, const double *end, double h) {
-    fmi2ValueReference vrs[MAX_PORTS];
+static int set_inputs(const System *s, const Plan *plan, int unit, size_t k, const double *start, const double *end,
+                      double h) {
+    const Ports *ports = &plan->ports[unit];
     double values[MAX_PORTS], slopes[MAX_PORTS];
     fmi2Integer orders[MAX_PORTS];
-    size_t n = 0;
     int any_slope = 0;
-    for (size_t d = 0; d < s->n_drives; d++) {
-        if (s->drives[d].unit != unit || n >= MAX_PORTS) continue;
-        vrs[n] = s->drives[d].vr;
-        values[n] = s->drives[d].values[k];
-        slopes[n] = h > 0 ? s->drives[d].slopes[k] : 0.0;
-        any_slope |= slopes[n] != 0.0;
-        n++;
+    if (!ports->n) return 1;
+    for (size_t j = 0; j < ports->n; j++) {
+        const size_t i = ports->index[j];
+        if (ports->from_link[j]) {
+            values[j] = start[i];
+            slopes[j] = h > 0 ? (end[i] - start[i]) / h : 0.0;
+        } else {
+            values[j] = s->drives[i].values[k];
+            slopes[j] = h > 0 ? s->drives[i].slopes[k] : 0.0;
+        }
+        any_slope |= slopes[j] != 0.0;
     }
-    for (size_t l = 0; l < s->n_links; l++) {
-        if (s->links[l].target != unit || n >= MAX_PORTS) continue;
-        vrs[n] = s->links[l].target_vr;
-        values[n] = start[l];
-        slopes[n] = h > 0 ? (end[l] - start[l]) / h : 0.0;
-        any_slope |= slopes[n] != 0.0;
-        n++;
-    }
-    if (!n) return 1;
     const Unit *u = &s->units[unit].f;
-    if (u->set_real(u->component, vrs, n, values) > fmi2Warning) return 0;
+    if (u->set_real(u->component, ports->vr, ports->n, values) > fmi2Warning) return 0;
     if (h > 0 && any_slope) {
-        for (size_t j = 0; j < n; j++) orders[j] = 1;
-        if (u->set_input_derivatives(u->component, vrs, n, orders, slopes) > fmi2Warning) return 0;
+        for (size_t j = 0; j < ports->n; j++) orders[j] = 1;
+        if (u->set_input_derivatives(u->component, ports->vr, ports->n, orders, slopes) > fmi2Warning) return 0;
     }
+    return 1;
+}
+
+/* Work out the plan; false if a unit has more than MAX_PORTS inputs. */
+static int make_plan(const System *s, Plan *plan) {
+    for (size_t unit = 0; unit < s->n_units; unit++) {
+        Ports *ports = &plan->ports[unit];
+        for (size_t d = 0; d < s->n_drives; d++) {
+            if (s->drives[d].unit != (int)unit) continue;
+            if (ports->n >= MAX_PORTS) return 0;
+            ports->from_link[ports->n] = 0;
+            ports->index[ports->n] = d;
+            ports->vr[ports->n++] = s->drives[d].vr;
+        }
+        for (size_t l = 0; l < s->n_links; l++) {
+            if (s->links[l].target != (int)unit) continue;
+            if (ports->n >= MAX_PORTS) return 0;
+            ports->from_link[ports->n] = 1;
+            ports->index[ports->n] = l;
+            ports->vr[ports->n++] = s->links[l].target_vr;
+        }
+    }
+    size_t n = 0;
+    for (size_t g = 0; g < s->n_groups; g++) {
+        plan->publish_start[g] = n;
+        plan->coupled[g] = 0;
+        for (size_t l = 0; l < s->n_links; l++) {
+            const int source_in = in_group(s, g, s->links[l].source);
+            if (source_in) plan->published[n++] = l;
+            plan->coupled[g] |= source_in && in_group(s, g, s->links[l].target);
+        }
+    }
+    plan->publish_start[s->n_groups] = n;
     return 1;
 }
 
@@ -165,10 +211,11 @@ static int do_step(System *s, int unit, double t, double h) {
 }
 
 /* Update the signals of every link whose source is in group g. */
-static int publish(System *s, size_t g, double *signal, double t) {
-    for (size_t l = 0; l < s->n_links; l++)
-        if (in_group(s, g, s->links[l].source) && !get_one(s, s->links[l].source, s->links[l].source_vr, &signal[l]))
-            return fail(s, 1, s->links[l].source, t);
+static int publish(System *s, const Plan *plan, size_t g, double *signal, double t) {
+    for (size_t j = plan->publish_start[g]; j < plan->publish_start[g + 1]; j++) {
+        const size_t l = plan->published[j];
+        if (!get_one(s, s->links[l].source, s->links[l].source_vr, &signal[l])) return fail(s, 1, s->links[l].source, t);
+    }
     return 1;
 }
 
@@ -191,7 +238,7 @@ static int solve_point(System *s, double *signal, double t) {
     return fail(s, 4, -1, t);
 }
 
-static int coupled_step(System *s, size_t g, size_t k, double *start, double *signal, double *guess,
+static int coupled_step(System *s, const Plan *plan, size_t g, size_t k, double *start, double *signal, double *guess,
                         double *previous_end, unsigned char *has_previous, fmi2FMUstate *saved, double t, double h) {
     double ends[MAX_SIGNALS];
     int internal[MAX_SIGNALS];
@@ -208,7 +255,7 @@ static int coupled_step(System *s, size_t g, size_t k, double *start, double *si
     for (int it = 0; it < s->max_iterations; it++) {
         s->iterations++;
         for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
-            if (!set_inputs(s, s->group_members[m], k, start, guess, h)) return fail(s, 1, s->group_members[m], t);
+            if (!set_inputs(s, plan, s->group_members[m], k, start, guess, h)) return fail(s, 1, s->group_members[m], t);
         for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
             if (!do_step(s, s->group_members[m], t, h)) return 0;
         change = 0.0;
@@ -224,7 +271,7 @@ static int coupled_step(System *s, size_t g, size_t k, double *start, double *si
                     previous_end[l] = 2 * ends[l] - start[l];
                     has_previous[l] = 1;
                 }
-            return publish(s, g, signal, t);
+            return publish(s, plan, g, signal, t);
         }
         for (size_t l = 0; l < s->n_links; l++)
             if (internal[l]) guess[l] = ends[l];
@@ -244,27 +291,25 @@ static int record_outputs(System *s, size_t row) {
     return 1;
 }
 
-static int run_system(System *s, double *signal, double *start, double *guess, double *previous_end,
-                      unsigned char *has_previous, fmi2FMUstate *saved) {
+static int run_system(System *s, const Plan *plan, double *signal, double *start, double *guess,
+                      double *previous_end, unsigned char *has_previous, fmi2FMUstate *saved) {
     size_t row = 0;
     const double t0 = s->times[0];
     for (size_t unit = 0; unit < s->n_units; unit++)
-        if (!set_inputs(s, (int)unit, 0, signal, signal, 0.0)) return fail(s, 1, (int)unit, t0);
+        if (!set_inputs(s, plan, (int)unit, 0, signal, signal, 0.0)) return fail(s, 1, (int)unit, t0);
     if (!solve_point(s, signal, t0)) return 0;
     if (s->record[0] && !record_outputs(s, row++)) return 0;
     for (size_t k = 0; k + 1 < s->n_points; k++) {
         const double t = s->times[k], h = s->times[k + 1] - s->times[k];
         for (size_t l = 0; l < s->n_links; l++) start[l] = signal[l];
         for (size_t g = 0; g < s->n_groups; g++) {
-            int coupled = 0;
-            for (size_t l = 0; l < s->n_links; l++)
-                coupled |= in_group(s, g, s->links[l].source) && in_group(s, g, s->links[l].target);
-            if (coupled) {
-                if (!coupled_step(s, g, k, start, signal, guess, previous_end, has_previous, saved, t, h)) return 0;
+            if (plan->coupled[g]) {
+                if (!coupled_step(s, plan, g, k, start, signal, guess, previous_end, has_previous, saved, t, h))
+                    return 0;
             } else {
                 const int unit = s->group_members[s->group_start[g]];
-                if (!set_inputs(s, unit, k, start, signal, h)) return fail(s, 1, unit, t);
-                if (!do_step(s, unit, t, h) || !publish(s, g, signal, t)) return 0;
+                if (!set_inputs(s, plan, unit, k, start, signal, h)) return fail(s, 1, unit, t);
+                if (!do_step(s, unit, t, h) || !publish(s, plan, g, signal, t)) return 0;
             }
         }
         if (s->record[k + 1] && !record_outputs(s, row++)) return 0;
@@ -281,14 +326,22 @@ int pendfmu_run_system(System *s) {
     double *signal = calloc(4 * s->n_links + 1, sizeof(double));
     unsigned char *has_previous = calloc(s->n_links + 1, 1);
     fmi2FMUstate *saved = calloc(s->n_units, sizeof(fmi2FMUstate));
+    Plan plan = {calloc(s->n_units + 1, sizeof(Ports)), calloc(s->n_groups * s->n_links + 1, sizeof(size_t)),
+                 calloc(s->n_groups + 1, sizeof(size_t)), calloc(s->n_groups + 1, 1)};
     int ok = 0;
-    if (signal && has_previous && saved)
-        ok = run_system(s, signal, signal + s->n_links, signal + 2 * s->n_links, signal + 3 * s->n_links,
-                        has_previous, saved);
-    else
+    if (!(signal && has_previous && saved && plan.ports && plan.published && plan.publish_start && plan.coupled))
         fail(s, 3, -1, s->times[0]);
+    else if (!make_plan(s, &plan))
+        fail(s, 5, -1, s->times[0]);
+    else
+        ok = run_system(s, &plan, signal, signal + s->n_links, signal + 2 * s->n_links, signal + 3 * s->n_links,
+                        has_previous, saved);
     for (size_t unit = 0; saved && unit < s->n_units; unit++)
         if (saved[unit]) s->units[unit].free_state(s->units[unit].f.component, &saved[unit]);
+    free(plan.ports);
+    free(plan.published);
+    free(plan.publish_start);
+    free(plan.coupled);
     free(signal);
     free(has_previous);
     free(saved);

@@ -250,6 +250,8 @@ class Master:
             raise CouplingError(f"algebraic loop {self._loop_text()} did not converge {where} "
                                 f"after {self.max_iterations} iterations (last relative change "
                                 f"{system.last_change:.3g})")
+        if system.fail_kind == 5:
+            raise ValueError("the native engine takes at most 64 inputs per component; use engine='python'")
         if system.fail_kind:
             name = names[system.fail_unit] if system.fail_unit >= 0 else "the system"
             said = "; ".join(fmus[name].messages[-3:]) if name in fmus else "out of memory"
