@@ -64,7 +64,9 @@ def test_resume_refuses_a_checkpoint_of_another_fit(cart_recording, tmp_path, ca
 
 
 def test_a_real_sigint_stops_worker_processes_and_writes_the_checkpoint(tmp_path):
-    write_experiments(tmp_path, CART_TRUTH, seed=9, experiments=[cart_experiment("long", 3.0, 2.5)])
+    # 20 s of recording: the fit takes about 15 s, nearly all global search, so the signal at 4 s lands inside
+    # it (a 3 s recording is fitted whole in under 5 s since the cart steps exactly)
+    write_experiments(tmp_path, CART_TRUTH, seed=9, experiments=[cart_experiment("long", 20.0, 2.5)])
     out = tmp_path / "fit.json"
     process = subprocess.Popen([sys.executable, "-m", "pendfmu", "fit", "cart", str(tmp_path / "long.csv"),
                                 "--out", str(out), "--workers", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,

@@ -26,7 +26,7 @@ from pendfmu.fmubuild import ctables, description
 FMUS_DIR = Path(__file__).resolve().parents[2] / "fmus"
 FRAMEWORK_DIR = FMUS_DIR / "framework"
 FMI_HEADERS = Path(fmpy.__file__).parent / "c-code"
-CFLAGS = ["-std=c99", "-O2", "-flto", "-fPIC", "-fvisibility=hidden", "-ffp-contract=off",
+CFLAGS = ["-std=c99", "-O3", "-flto", "-fPIC", "-fvisibility=hidden", "-ffp-contract=off",
           "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 PLATFORM = "linux64"
 
