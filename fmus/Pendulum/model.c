@@ -74,13 +74,6 @@ bool model_exact_step(Instance *inst, double t, const double *x, double h, doubl
     return false; /* no closed form: RK4 */
 }
 
-/* The angular acceleration in the current mode: exactly 0 while stuck. */
-static double angular_acceleration(const Instance *inst, const Friction *f, double w, double T_A) {
-    /* times 1/J: the division does not depend on the state, so it stays off the chain of
-     * dependent operations from one RK4 stage to the next */
-    return MODE == 0 ? 0.0 : (T_A - friction_force(f, MODE, w, T_A)) * (1.0 / inertia(inst));
-}
-
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
     (void)t;
     const double *d = inst->s.derived;
@@ -89,7 +82,7 @@ void model_derivatives(const Instance *inst, double t, const double *x, double *
         dx[S_w] = 0.0; /* stuck */
         return;
     }
-    /* angular_acceleration() in the form divided by J (the same friction law, sliding) */
+    /* (T_A - T_F) / J with the sliding friction law T_F = k_fwp w + T_Kp mode */
     dx[S_w] = trig_memo_wave(inst, 0, x[S_phi], d[D_GRAVITY], -d[D_ARM] * R(a)) - d[D_VISCOUS] * x[S_w] -
               d[D_COULOMB] * MODE;
 }
@@ -113,13 +106,14 @@ bool model_update_mode(Instance *inst, double t, double *x) {
 }
 
 void model_outputs(Instance *inst, double t, const double *x) {
-    (void)t;
     const Friction f = friction(inst);
     const double T_A = active_torque(inst, x);
     const double T_F = friction_force(&f, MODE, x[S_w], T_A);
+    double dx[N_STATES];
+    model_derivatives(inst, t, x, dx); /* alpha exactly as the integrator sees it */
     R(phi) = x[S_phi];
     R(w) = x[S_w];
-    R(alpha) = angular_acceleration(inst, &f, x[S_w], T_A);
+    R(alpha) = dx[S_w];
     R(T_A) = T_A;
     R(T_F) = T_F;
     FLAG(stuck) = MODE == 0;
