@@ -2,14 +2,15 @@
  *
  * Classic RK4 on a fixed internal step that divides the communication interval evenly,
  * so every step lands exactly on the communication point. Where the model has an exact
- * solution for the step (model_exact_step), it replaces RK4 and spans the whole interval. After each RK4 step the event
- * indicators are compared with their values at the start of the step; an indicator that
- * went from >= 0 to < 0 marks a mode change inside the step. Its time is located by
- * Illinois (modified regula falsi) root finding on g(tau) = z(t + tau, RK4(x, tau)), the
- * indicator along the RK4 polynomial from the step's start, to a bracket narrower than
- * EVENT_TIME_TOLERANCE. The step is cut there, the mode updated (event iteration), and
- * integration continues from the event. Because RK4 over a sub-step is the same formula,
- * the located time carries the integrator's own O(h^5) accuracy, not an interpolation's.
+ * solution for the step (model_exact_step), it replaces RK4 and spans the whole interval.
+ * After each step the event indicators are compared with their values at the start of
+ * the step; an indicator that went from >= 0 to < 0 marks a mode change inside the step.
+ * Its time is located by Illinois (modified regula falsi) root finding on
+ * g(tau) = z(t + tau, step(x, tau)), the indicator along the step's own solution (exact, or
+ * the RK4 polynomial), to a bracket narrower than EVENT_TIME_TOLERANCE. The step is cut
+ * there, the mode updated (event iteration), and integration continues from the event.
+ * Because a sub-step is the same formula, the located time carries the integrator's own
+ * accuracy, not an interpolation's.
  */
 #include <math.h>
 #include <string.h>
@@ -53,13 +54,13 @@ static void rk4_step(Instance *inst, double t, const double *x, double h, double
 
 /* One step of size h from (t, x) into x_out: the model's exact solution where it has one,
  * else classic Runge-Kutta. */
-static void rk4(Instance *inst, double t, const double *x, double h, double *x_out) {
+static void advance(Instance *inst, double t, const double *x, double h, double *x_out) {
     solver_inputs_at(inst, t);
     if (!model_exact_step(inst, t, x, h, x_out)) rk4_step(inst, t, x, h, x_out);
 }
 
 /* One classic Runge-Kutta step of size h from (t, x) into x_out; the inputs are already
- * evaluated at t (by rk4). */
+ * evaluated at t (by the caller). */
 static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
     double k1[N_STATES], k2[N_STATES], k3[N_STATES], k4[N_STATES], tmp[N_STATES];
     model_derivatives(inst, t, x, k1);
@@ -76,7 +77,7 @@ static void rk4_step(Instance *inst, double t, const double *x, double h, double
 /* Indicator `which` after a sub-step of length tau from (t, x). */
 static double indicator_after(Instance *inst, double t, const double *x, double tau, int which) {
     double x_tau[N_STATES], z[N_EVENT_INDICATORS];
-    rk4(inst, t, x, tau, x_tau);
+    advance(inst, t, x, tau, x_tau);
     indicators_at(inst, t + tau, x_tau, z);
     return z[which];
 }
@@ -191,7 +192,7 @@ bool solver_do_step(Instance *inst, double t_end) {
                 }
             }
         }
-        if (which >= 0 && tau < h) rk4(inst, t, s->x, tau, x1);
+        if (which >= 0 && tau < h) advance(inst, t, s->x, tau, x1);
         memcpy(s->x, x1, sizeof s->x);
         t = (tau == remaining) ? t_end : t + tau;
         s->time = t;

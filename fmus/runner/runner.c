@@ -164,24 +164,22 @@ static int set_inputs(const System *s, const Plan *plan, int unit, size_t k, con
     return 1;
 }
 
+static int add_port(Ports *ports, unsigned char from_link, size_t index, fmi2ValueReference vr) {
+    if (ports->n >= MAX_PORTS) return 0;
+    ports->from_link[ports->n] = from_link;
+    ports->index[ports->n] = index;
+    ports->vr[ports->n++] = vr;
+    return 1;
+}
+
 /* Work out the plan; false if a unit has more than MAX_PORTS inputs. */
 static int make_plan(const System *s, Plan *plan) {
     for (size_t unit = 0; unit < s->n_units; unit++) {
         Ports *ports = &plan->ports[unit];
-        for (size_t d = 0; d < s->n_drives; d++) {
-            if (s->drives[d].unit != (int)unit) continue;
-            if (ports->n >= MAX_PORTS) return 0;
-            ports->from_link[ports->n] = 0;
-            ports->index[ports->n] = d;
-            ports->vr[ports->n++] = s->drives[d].vr;
-        }
-        for (size_t l = 0; l < s->n_links; l++) {
-            if (s->links[l].target != (int)unit) continue;
-            if (ports->n >= MAX_PORTS) return 0;
-            ports->from_link[ports->n] = 1;
-            ports->index[ports->n] = l;
-            ports->vr[ports->n++] = s->links[l].target_vr;
-        }
+        for (size_t d = 0; d < s->n_drives; d++)
+            if (s->drives[d].unit == (int)unit && !add_port(ports, 0, d, s->drives[d].vr)) return 0;
+        for (size_t l = 0; l < s->n_links; l++)
+            if (s->links[l].target == (int)unit && !add_port(ports, 1, l, s->links[l].target_vr)) return 0;
     }
     size_t n = 0;
     for (size_t g = 0; g < s->n_groups; g++) {
