@@ -28,7 +28,7 @@ from threadpoolctl import threadpool_limits
 from scipy.optimize import differential_evolution, least_squares
 
 from pendfmu.residuals import Residuals
-from pendfmu.workers import dask_costs, pause_profiler, resume_profiler, worker_cost, worker_start
+from pendfmu.workers import cost_and_failures, dask_costs, pause_profiler, resume_profiler, worker_cost, worker_start
 
 @dataclass
 class GlobalOptions:
@@ -101,8 +101,7 @@ class _Evaluator:
             yield from self.pool.imap(worker_cost, candidates)
             return
         for u in candidates:
-            before = self.residuals.failures
-            yield self.residuals.sum_of_squares(u), self.residuals.failures - before
+            yield cost_and_failures(self.residuals, u)
 
     def close(self) -> None:
         if self.pool is not None:

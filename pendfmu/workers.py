@@ -27,11 +27,16 @@ def worker_start(residuals: Residuals) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
 
 
+def cost_and_failures(residuals: Residuals, u: np.ndarray) -> tuple[float, int]:
+    """(cost, simulations that failed) of one candidate."""
+    before = residuals.failures
+    cost = residuals.sum_of_squares(u)
+    return cost, residuals.failures - before
+
+
 def worker_cost(u: np.ndarray) -> tuple[float, int]:
-    """(cost, simulations that failed) of one candidate, in a local worker process."""
-    before = _WORKER_RESIDUALS.failures
-    cost = _WORKER_RESIDUALS.sum_of_squares(u)
-    return cost, _WORKER_RESIDUALS.failures - before
+    """cost_and_failures of one candidate, in a local worker process."""
+    return cost_and_failures(_WORKER_RESIDUALS, u)
 
 
 _DASK_LOCK = threading.Lock()
@@ -41,12 +46,8 @@ def dask_costs(candidates: list[np.ndarray], residuals: Residuals) -> list[tuple
     """On a Dask worker, a chunk of candidates: `residuals` was scattered once, so the worker
     keeps one copy and its FMU instances across tasks (reset per run); the lock keeps a
     multi-threaded worker from stepping those instances from two threads at once."""
-    results = []
     with _DASK_LOCK, threadpool_limits(1, user_api="blas"):
-        for u in candidates:
-            before = residuals.failures
-            results.append((residuals.sum_of_squares(u), residuals.failures - before))
-    return results
+        return [cost_and_failures(residuals, u) for u in candidates]
 
 
 PROFILER_CALLBACKS = ("profile", "profile-cycle")
