@@ -354,20 +354,16 @@ class _Rig:
                 mk(lambda t, y: u.Ic(t) - y[0] + D, -1, ("current", "slew", -1))
             else:
                 mk(lambda t, y, m=mI: u.Ic(t) - y[0] - m * D, -mI, ("current", "lin", 0))
-        if self.cart_modal:
-            if mc != 0:
-                mk(lambda t, y: y[2], -mc, ("cart", "stop", None))
+        # joint, modal?, mode, its speed in y, its active force in eval(), stiction threshold
+        joints = (("cart", self.cart_modal, mc, 2, 4, self.cj.thr), ("pendulum", self.pend_modal, mp, 4, 5, self.pj.thr))
+        for name, modal, mode, speed, force, thr in joints:
+            if not modal:
+                continue
+            if mode != 0:
+                mk(lambda t, y, i=speed: y[i], -mode, (name, "stop", None))
             else:
-                mk(lambda t, y, thr=self.cj.thr: abs(self.eval(t, y.tolist(), modes, u)[4]) - thr,
-                   +1,
-                   ("cart", "break", None))
-        if self.pend_modal:
-            if mp != 0:
-                mk(lambda t, y: y[4], -mp, ("pendulum", "stop", None))
-            else:
-                mk(lambda t, y, thr=self.pj.thr: abs(self.eval(t, y.tolist(), modes, u)[5]) - thr,
-                   +1,
-                   ("pendulum", "break", None))
+                mk(lambda t, y, i=force, thr=thr: abs(self.eval(t, y.tolist(), modes, u)[i]) - thr, +1,
+                   (name, "break", None))
         return evs
 
     # -- choosing consistent modes at a restart ----------------------------------------
