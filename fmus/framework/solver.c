@@ -33,11 +33,6 @@ void solver_inputs_at(Instance *inst, double t) {
     }
 }
 
-static void derivatives_at(Instance *inst, double t, const double *x, double *dx) {
-    solver_inputs_at(inst, t);
-    model_derivatives(inst, t, x, dx);
-}
-
 static void indicators_at(Instance *inst, double t, const double *x, double *z) {
     solver_inputs_at(inst, t);
     model_event_indicators(inst, t, x, z);
@@ -59,6 +54,49 @@ static void advance(Instance *inst, double t, const double *x, double h, double 
     if (!model_exact_step(inst, t, x, h, x_out)) rk4_step(inst, t, x, h, x_out);
 }
 
+#if SECOND_ORDER
+/* One classic Runge-Kutta step of size h from (t, x) into x_out, for a joint: states
+ * (p, v) with dp/dt = v and dv/dt = f(t, p, v). The inputs are already evaluated at t.
+ * Substituting k_p = v + c h f into the classic formulas gives its Nystrom form, the same
+ * method up to rounding:
+ *     f1 = f(t, p, v)
+ *     f2 = f(t + h/2, p + h/2 v, v + h/2 f1)
+ *     f3 = f(t + h/2, p + h/2 v + h^2/4 f1, v + h/2 f2)
+ *     f4 = f(t + h, p + h v + h^2/2 f2, v + h f3)
+ *     p' = p + h v + h^2/6 (f1 + f2 + f3),   v' = v + h/6 (f1 + 2 f2 + 2 f3 + f4)
+ * Why: each stage position no longer waits for the previous stage's speed. The position of
+ * stage 2 needs no stage at all, so the processor evaluates its trigonometry alongside
+ * stage 1, and the chain of dependent operations through a step is about half as long. */
+static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
+    const double p = x[0], v = x[1], half = 0.5 * h;
+    double stage[N_STATES], dx[N_STATES];
+    model_derivatives(inst, t, x, dx);
+    const double f1 = dx[1];
+    solver_inputs_at(inst, t + half);
+    const double p_half = p + half * v;
+    stage[0] = p_half;
+    stage[1] = v + half * f1;
+    model_derivatives(inst, t + half, stage, dx);
+    const double f2 = dx[1];
+    stage[0] = p_half + (half * half) * f1;
+    stage[1] = v + half * f2;
+    model_derivatives(inst, t + half, stage, dx);
+    const double f3 = dx[1];
+    solver_inputs_at(inst, t + h);
+    const double p_full = p + h * v;
+    stage[0] = p_full + (h * half) * f2;
+    stage[1] = v + h * f3;
+    model_derivatives(inst, t + h, stage, dx);
+    const double f4 = dx[1];
+    x_out[0] = p_full + (h * h / 6.0) * (f1 + f2 + f3);
+    x_out[1] = v + h / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4);
+}
+#else
+static void derivatives_at(Instance *inst, double t, const double *x, double *dx) {
+    solver_inputs_at(inst, t);
+    model_derivatives(inst, t, x, dx);
+}
+
 /* One classic Runge-Kutta step of size h from (t, x) into x_out; the inputs are already
  * evaluated at t (by the caller). */
 static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
@@ -73,6 +111,7 @@ static void rk4_step(Instance *inst, double t, const double *x, double h, double
     for (int j = 0; j < N_STATES; j++)
         x_out[j] = x[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
 }
+#endif
 
 /* Indicator `which` after a sub-step of length tau from (t, x). */
 static double indicator_after(Instance *inst, double t, const double *x, double tau, int which) {

@@ -25,6 +25,13 @@ def _c_double(value: float) -> str:
     return repr(float(value))
 
 
+def _is_second_order(component: Component) -> bool:
+    """States (position, speed) with speed = d position/dt: a mechanical joint, for which the
+    solver takes RK4 in its Nystrom form (solver.c)."""
+    states = component.states
+    return len(states) == 2 and states[1].derivative_of == states[0].name
+
+
 def variables_header(component: Component, guid: str) -> str:
     reals = component.of(type="Real")
     integers = component.of(type="Integer")
@@ -48,6 +55,7 @@ def variables_header(component: Component, guid: str) -> str:
         f"#define N_STATES {len(component.states)}",
         f"#define N_INPUTS {len(component.of(causality='input', type='Real'))}",
         f"#define N_EVENT_INDICATORS {component.event_indicators}",
+        f"#define SECOND_ORDER {int(_is_second_order(component))}",
         "",
         "enum ValueReference {",
     ]
