@@ -187,3 +187,35 @@ def test_instantiate_free_cycles_leave_memory_flat(cart):
     before = resident_kilobytes()
     cycles(10_000)
     assert resident_kilobytes() - before < 1024
+
+
+def test_outputs_computed_when_read_after_a_step():
+    """After a step only the states are copied to their variables; the other outputs are
+    computed when first read. They must equal the pendulum's equation (MODEL.md) at the new
+    state, and whether or not they are read must not change the trajectory by a bit."""
+    m, l, g, k, T_K = 0.2, 0.3, 9.81, 1e-3, 2e-3
+    J = 4.0 / 3.0 * m * l * l
+    steps = [(0.2e-3, {"a": 0.5 * math.sin(3e-3 * n)}) for n in range(3000)]
+
+    def swing(read_all_every_step):
+        with ComponentFMU("Pendulum", {"phi0": math.pi + 0.6}) as pendulum:
+            seen = []
+            for h, inputs in steps:
+                pendulum.step(h, inputs)
+                phi, w = pendulum.get("phi", "w")
+                if read_all_every_step:
+                    pendulum.get("alpha", "T_A", "T_F")
+                seen.append((phi, w))
+            alpha, T_A, T_F = pendulum.get("alpha", "T_A", "T_F")
+            mode = pendulum.get("mode")[0]
+        return np.array(seen), (phi, w, mode), (alpha, T_A, T_F)
+
+    lazy, (phi, w, mode), (alpha, T_A, T_F) = swing(False)
+    eager, _, eager_outputs = swing(True)
+    assert np.array_equal(lazy, eager)
+    assert (alpha, T_A, T_F) == eager_outputs
+    a = steps[-1][1]["a"]
+    assert mode == 1 or mode == -1
+    assert T_A == pytest.approx(m * l * (g * math.sin(phi) - a * math.cos(phi)), rel=1e-13, abs=1e-15)
+    assert T_F == pytest.approx(k * w + T_K * mode, rel=1e-13)
+    assert alpha == pytest.approx((T_A - T_F) / J, rel=1e-12, abs=1e-12)

@@ -105,15 +105,33 @@ static bool null_arrays(Instance *inst, const char *function, size_t n, const vo
 /* Bring outputs up to date. Between Co-Simulation steps an input may have changed since
  * the last step: the mode is made consistent first, as the next step would. */
 static bool update_outputs(Instance *inst) {
-    if (inst->s.outputs_valid) return true;
-    if (inst->s.phase == FMU_INITIALIZATION || inst->s.phase == FMU_INSTANTIATED) {
-        if (!solver_initialize(inst)) return false;
-    } else if (inst->s.phase == FMU_STEP_COMPLETE) {
-        if (!solver_event_iteration(inst, inst->s.time)) return false;
+    if (inst->s.outputs == OUTPUTS_CURRENT) return true;
+    if (inst->s.outputs == OUTPUTS_STALE) {
+        if (inst->s.phase == FMU_INITIALIZATION || inst->s.phase == FMU_INSTANTIATED) {
+            if (!solver_initialize(inst)) return false;
+        } else if (inst->s.phase == FMU_STEP_COMPLETE) {
+            if (!solver_event_iteration(inst, inst->s.time)) return false;
+        }
     }
     model_outputs(inst, inst->s.time, inst->s.x);
-    inst->s.outputs_valid = true;
+    inst->s.outputs = OUTPUTS_CURRENT;
     return true;
+}
+
+/* Whether reading these Reals needs model_outputs: an output or local that is not a state.
+ * Why: a master typically reads a few outputs after each step (the pendulum's angle, a
+ * state), and computing all the others (trigonometry, friction) at every step cost a tenth
+ * of the rig's time. Parameters and inputs are always current. */
+static bool reads_computed_outputs(const fmi2ValueReference vr[], size_t nvr) {
+    for (size_t k = 0; k < nvr; k++) {
+        if (vr[k] >= N_REAL) continue; /* reported by the caller */
+        const Causality causality = REAL_INFO[vr[k]].causality;
+        if (causality != CAUSALITY_OUTPUT && causality != CAUSALITY_LOCAL) continue;
+        bool state = false;
+        for (int j = 0; j < N_STATES; j++) state |= STATE_VR[j] == vr[k];
+        if (!state) return true;
+    }
+    return false;
 }
 
 /* ---------------------------------------------------------------- common functions */
@@ -225,7 +243,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
     CHECK("fmi2EnterInitializationMode", FMU_INSTANTIATED, ANY_TYPE);
     inst->s.phase = FMU_INITIALIZATION;
-    inst->s.outputs_valid = false;
+    inst->s.outputs = OUTPUTS_STALE;
     return fmi2OK;
 }
 
@@ -235,7 +253,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     if (!model_check_parameters(inst, why, sizeof why)) return fail(inst, "%s", why);
     if (!solver_initialize(inst)) return fail(inst, "fmi2ExitInitializationMode: initialization failed");
     model_outputs(inst, inst->s.time, inst->s.x);
-    inst->s.outputs_valid = true;
+    inst->s.outputs = OUTPUTS_CURRENT;
     inst->s.phase = inst->type == fmi2CoSimulation ? FMU_STEP_COMPLETE : FMU_EVENT_MODE;
     return fmi2OK;
 }
@@ -257,7 +275,10 @@ fmi2Status fmi2Reset(fmi2Component c) {
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
     CHECK("fmi2GetReal", GETTABLE, ANY_TYPE);
     if (null_arrays(inst, "fmi2GetReal", nvr, vr, value)) return fmi2Error;
-    if (inst->s.phase != FMU_ERROR && !update_outputs(inst)) return fail(inst, "fmi2GetReal: cannot compute outputs");
+    const bool current = inst->s.outputs == OUTPUTS_CURRENT ||
+                         (inst->s.outputs == OUTPUTS_STEPPED && !reads_computed_outputs(vr, nvr));
+    if (inst->s.phase != FMU_ERROR && !current && !update_outputs(inst))
+        return fail(inst, "fmi2GetReal: cannot compute outputs");
     for (size_t k = 0; k < nvr; k++) {
         if (vr[k] >= N_REAL) return fail(inst, "fmi2GetReal: unknown value reference %u", vr[k]);
         value[k] = inst->s.r[vr[k]];
@@ -349,7 +370,7 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nv
         inst->s.r[vr[k]] = value[k];
         inst->s.u_base[vr[k]] = value[k];
     }
-    if (nvr > 0) inst->s.outputs_valid = false;
+    if (nvr > 0) inst->s.outputs = OUTPUTS_STALE;
     return fmi2OK;
 }
 
@@ -536,8 +557,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
         return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
     s->uder_set = false;
     for (int j = 0; j < N_INPUTS; j++) s->u_base[INPUT_VR[j]] = s->r[INPUT_VR[j]];
-    model_outputs(inst, s->time, s->x);
-    s->outputs_valid = true;
+    for (int j = 0; j < N_STATES; j++) s->r[STATE_VR[j]] = s->x[j];
+    s->outputs = OUTPUTS_STEPPED;
     return fmi2OK;
 }
 
@@ -601,7 +622,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
     eventInfo->valuesOfContinuousStatesChanged = memcmp(before, inst->s.x, sizeof before) != 0;
     eventInfo->nextEventTimeDefined = fmi2False;
     eventInfo->nextEventTime = 0.0;
-    inst->s.outputs_valid = false;
+    inst->s.outputs = OUTPUTS_STALE;
     return fmi2OK;
 }
 
@@ -630,7 +651,7 @@ fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
     CHECK("fmi2SetTime", ME_SIM, fmi2ModelExchange);
     if (!isfinite(time)) return fail(inst, "fmi2SetTime: time %g is not finite", time);
     inst->s.time = time;
-    inst->s.outputs_valid = false;
+    inst->s.outputs = OUTPUTS_STALE;
     return fmi2OK;
 }
 
@@ -641,7 +662,7 @@ fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n
         if (!isfinite(x[k])) return fail(inst, "fmi2SetContinuousStates: state %s = %g is not finite",
                                          REAL_INFO[STATE_VR[k]].name, x[k]);
     memcpy(inst->s.x, x, sizeof inst->s.x);
-    inst->s.outputs_valid = false;
+    inst->s.outputs = OUTPUTS_STALE;
     return fmi2OK;
 }
 

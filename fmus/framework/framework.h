@@ -79,6 +79,14 @@ typedef enum {
     FMU_ERROR = 1 << 6
 } FmuPhase;
 
+/* How current the output and local variables are. */
+typedef enum {
+    OUTPUTS_STALE = 0, /* recompute, making the mode consistent with the inputs first */
+    OUTPUTS_STEPPED,   /* a Co-Simulation step just ended: the mode is consistent and the states'
+                          variables are current; the other outputs are computed when first read */
+    OUTPUTS_CURRENT
+} OutputsStatus;
+
 /* Everything that changes while an instance runs: exactly what an FMU state holds. */
 typedef struct {
     double time;
@@ -94,7 +102,7 @@ typedef struct {
     double uder_time;
     bool uder_set;
     FmuPhase phase;
-    bool outputs_valid;
+    OutputsStatus outputs;
     long event_count;
     /* The RK4 step limit, min(solver_step, model_max_step()): fixed with the parameters,
      * so computed once at initialization. */
