@@ -17,6 +17,17 @@
 
 #include "framework.h"
 
+/* Inline every call the function makes, the model's equations included (they are in
+ * another file; -flto makes them visible). Why: the compiler's own heuristics keep
+ * model_derivatives out of line, and the call, the spilled registers and the derivatives
+ * passed through memory were a quarter of a pendulum step; inlined into the RK4 step, the
+ * C loop over the rig went from 0.31 to 0.22 us per communication step. */
+#if defined(__GNUC__)
+#define FLATTEN __attribute__((flatten))
+#else
+#define FLATTEN
+#endif
+
 /* Evaluate the inputs at time t from the polynomial set by fmi2SetRealInputDerivatives.
  * Without derivatives for the current step, inputs are held (zero-order hold). */
 void solver_inputs_at(Instance *inst, double t) {
@@ -67,7 +78,7 @@ static void advance(Instance *inst, double t, const double *x, double h, double 
  * Why: each stage position no longer waits for the previous stage's speed. The position of
  * stage 2 needs no stage at all, so the processor evaluates its trigonometry alongside
  * stage 1, and the chain of dependent operations through a step is about half as long. */
-static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
+FLATTEN static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
     const double p = x[0], v = x[1], half = 0.5 * h;
     double stage[N_STATES], dx[N_STATES];
     model_derivatives(inst, t, x, dx);
@@ -99,7 +110,7 @@ static void derivatives_at(Instance *inst, double t, const double *x, double *dx
 
 /* One classic Runge-Kutta step of size h from (t, x) into x_out; the inputs are already
  * evaluated at t (by the caller). */
-static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
+FLATTEN static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
     double k1[N_STATES], k2[N_STATES], k3[N_STATES], k4[N_STATES], tmp[N_STATES];
     model_derivatives(inst, t, x, k1);
     for (int j = 0; j < N_STATES; j++) tmp[j] = x[j] + 0.5 * h * k1[j];
@@ -192,7 +203,7 @@ static bool all_finite(const double *x) {
 }
 
 /* Integrate from the current time to t_end. Returns false (after logging) on failure. */
-bool solver_do_step(Instance *inst, double t_end) {
+FLATTEN bool solver_do_step(Instance *inst, double t_end) {
     DynamicState *s = &inst->s;
     const double t_start = s->time;
     double t = t_start;
