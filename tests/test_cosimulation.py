@@ -86,3 +86,25 @@ def test_native_and_python_masters_agree_to_the_bit(eta, interpolation):
     native = master.run(times, outputs, drive, engine="native")
     assert np.array_equal(python.to_numpy(), native.to_numpy())
     assert master.iterations == python_iterations
+
+
+def test_native_runs_keep_their_inputs_apart():
+    """The native engine keeps the grid and the drives it built for the last run's sample
+    times; a run with other command values, or with the same command object changed in
+    place, must give what a new master gives, and an earlier frame must not change."""
+    times = TIMES[:1501]
+    system = rig_system(0.4, FMUS_DIR, {"eta": 0.4, **INITIAL})
+    kept = Master.from_system(system)
+    drive = ExternalInput(np.array([0.0, 0.05]), np.array([0.0, 1.5]))
+    first = kept.run(times, ["Cart.x"], {"CurrentLoop.I_c": drive})
+    first_values = first.to_numpy().copy()
+    drive.values[1] = -1.0  # changed in place: the same object, other samples
+    changed = kept.run(times, ["Cart.x"], {"CurrentLoop.I_c": drive})
+    fresh = Master.from_system(system).run(times, ["Cart.x"], {"CurrentLoop.I_c": drive})
+    assert np.array_equal(changed.to_numpy(), fresh.to_numpy())
+    assert changed["Cart.x"].iloc[-1] < 0 < first["Cart.x"].iloc[-1]
+    assert np.array_equal(first.to_numpy(), first_values)
+    user_times = times.copy()
+    frame = kept.run(user_times, ["Cart.x"], {"CurrentLoop.I_c": drive})
+    user_times[:] = 0.0  # the caller reuses its array: the frame keeps its own time column
+    assert np.array_equal(frame["time"].to_numpy(), times)
