@@ -116,9 +116,9 @@ def build_limit(directory: Path) -> ctypes.CDLL:
 REPEATS = 3
 
 
-def best_of(run, *args) -> tuple[float, float]:
-    """The fastest of REPEATS runs (the others met a busy machine) and its result."""
-    return min(run(*args) for _ in range(REPEATS))
+def best_of(run, *args, **kwargs) -> tuple:
+    """The fastest of REPEATS runs (the others met a busy machine): run returns (seconds, ...)."""
+    return min((run(*args, **kwargs) for _ in range(REPEATS)), key=lambda timing: timing[0])
 
 
 def cosimulation(seconds: float) -> None:
@@ -142,12 +142,17 @@ def cosimulation(seconds: float) -> None:
 
 
 def scaling() -> None:
+    """Times for 1x, 2x, 4x the length, and the straight line through them: a fixed cost per
+    run (resetting the FMUs, building the frame) plus a cost per simulated second."""
     print("cost against recording length (native master, rig):")
-    base = None
-    for factor in (1, 2, 4):
-        elapsed, _ = best_of(timed, master_run, 2.5 * factor, "native")
-        base = base or elapsed
-        print(f"  {factor}x ({2.5 * factor:g} s): {elapsed:.3f} s  ratio {elapsed / base:.2f}")
+    lengths = np.array([2.5, 5.0, 10.0])
+    elapsed = np.array([best_of(timed, master_run, length, "native")[0] for length in lengths])
+    for length, seconds in zip(lengths, elapsed):
+        print(f"  {length / lengths[0]:.0f}x ({length:g} s): {seconds:.4f} s  ratio {seconds / elapsed[0]:.2f}")
+    per_second, fixed = np.polyfit(lengths, elapsed, 1)
+    worst = np.max(np.abs(fixed + per_second * lengths - elapsed) / elapsed)
+    print(f"  line: {fixed * 1e3:.2f} ms per run + {per_second * 1e3:.3f} ms per simulated second; "
+          f"largest deviation from it {100 * worst:.1f} %")
 
 
 def naive_current_fit(path: Path, start: dict[str, float]) -> tuple[float, int, dict[str, float]]:
@@ -185,12 +190,12 @@ def fitting(quick: bool) -> None:
         folder = Path(tmp)
         write_experiments(folder, seed=1)
         start = {"T_i": 0.6e-3, "dIdt_max": 1800.0}
-        naive, calls, values = naive_current_fit(folder / "current-steps.csv", start)
-        ours, result = timed(fit, "current", [folder / "current-steps.csv"], start,
-                             global_search=GlobalOptions(enabled=False), progress=False)
-        print("current stage, local fit from the same start:")
-        print(f"  naive (simulate_fmu in least_squares): {naive:6.2f} s, {calls} simulations")
-        print(f"  pendfmu:                               {ours:6.2f} s, {result.nfev} simulations "
+        naive, calls, values = best_of(naive_current_fit, folder / "current-steps.csv", start)
+        ours, result = best_of(timed, fit, "current", [folder / "current-steps.csv"], start,
+                               global_search=GlobalOptions(enabled=False), progress=False)
+        print(f"current stage, local fit from the same start, best of {REPEATS}:")
+        print(f"  naive (simulate_fmu in least_squares): {naive:6.3f} s, {calls} simulations")
+        print(f"  pendfmu:                               {ours:6.3f} s, {result.nfev} simulations "
               f"-> {naive / ours:.1f}x faster ({naive / calls / (ours / result.nfev):.1f}x per simulation)")
         if not quick:
             wall, result = timed(fit_all, folder, seed=1, progress=False)
