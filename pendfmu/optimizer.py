@@ -28,7 +28,8 @@ from threadpoolctl import threadpool_limits
 from scipy.optimize import differential_evolution, least_squares
 
 from pendfmu.residuals import Residuals
-from pendfmu.workers import cost_and_failures, dask_costs, pause_profiler, resume_profiler, worker_cost, worker_start
+from pendfmu.workers import (CandidateEvaluator, cost_and_failures, dask_costs, pause_profiler, resume_profiler,
+                             worker_cost, worker_start)
 
 @dataclass
 class GlobalOptions:
@@ -62,14 +63,18 @@ class _Evaluator:
         self.failures = 0
         self.pool = None
         self.client = None
+        self.lost = None  # why a Dask actor's chunk ran as a task instead
         if scheduler:
             try:
                 from distributed import Client
             except ImportError:
                 raise RuntimeError("--scheduler needs Dask: pip install 'pendfmu[distributed]'") from None
-            self.client = Client(scheduler, set_as_default=False)
+            self.client = Client(scheduler, set_as_default=False, direct_to_workers=True)
             self.paused = self.client.run(pause_profiler)  # worker address -> callbacks stopped
-            self.remote = self.client.scatter(residuals, broadcast=True, hash=False)
+            with self.client.as_current():  # the actors' proxies bind to this client, not a default one
+                self.actors = [self.client.submit(CandidateEvaluator, residuals, actor=True, workers=[worker],
+                                                  allow_other_workers=False, pure=False).result()
+                               for worker in sorted(self.client.scheduler_info()["workers"])]
         elif workers > 1:
             context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
             self.pool = context.Pool(workers, initializer=worker_start, initargs=(residuals,))
@@ -86,16 +91,13 @@ class _Evaluator:
 
     def _costs(self, candidates):
         if self.client is not None:
-            # One chunk per worker, pinned to it: a generation's candidates cost about the
-            # same, and every task costs a round trip (about 10 ms here) the workers could use.
-            workers = sorted(self.client.scheduler_info()["workers"])
-            chunks = [c for c in np.array_split(np.arange(len(candidates)), max(1, min(len(candidates), len(workers))))
+            # One chunk per worker's actor: a generation's candidates cost about the same,
+            # and every call costs a round trip the workers could use.
+            chunks = [[candidates[k] for k in c] for c in np.array_split(np.arange(len(candidates)), len(self.actors))
                       if len(c)]
-            futures = [self.client.submit(dask_costs, [candidates[k] for k in chunk], self.remote, pure=False,
-                                          workers=[worker], allow_other_workers=True)
-                       for chunk, worker in zip(chunks, workers)]
-            for future in futures:
-                yield from future.result()
+            calls = [(chunk, self._actor_call(actor, chunk)) for chunk, actor in zip(chunks, self.actors)]
+            for chunk, call in calls:
+                yield from self._actor_result(chunk, call)
             return
         if self.pool is not None:
             yield from self.pool.imap(worker_cost, candidates)
@@ -103,22 +105,45 @@ class _Evaluator:
         for u in candidates:
             yield cost_and_failures(self.residuals, u)
 
+    @staticmethod
+    def _actor_call(actor, chunk):
+        """The actor's pending call, or the error its worker's loss raised at once."""
+        try:
+            return actor.costs(chunk)
+        except Exception as lost:
+            return lost
+
+    def _actor_result(self, chunk, call) -> list[tuple[float, int]]:
+        """An actor's costs; if its worker has gone (an actor does not move), the chunk runs
+        as an ordinary task on any worker the cluster still has, and nothing is lost."""
+        try:
+            if isinstance(call, Exception):
+                raise call
+            return call.result()
+        except Exception as lost:  # the worker's connection, not the simulations (they do not raise)
+            if self.lost is None:
+                self.lost = f"a Dask worker was lost ({type(lost).__name__}); its candidates ran as tasks"
+            return self.client.submit(dask_costs, chunk, self.residuals, pure=False).result()
+
     def close(self) -> None:
         if self.pool is not None:
             self.pool.terminate()
             self.pool.join()
         if self.client is not None:
+            alive = set(self.client.scheduler_info()["workers"])  # a lost worker has nothing to restore
             for worker, names in self.paused.items():
-                if names:
-                    self.client.run(resume_profiler, names, workers=[worker])
+                if names and worker in alive:
+                    self.client.run(resume_profiler, names, workers=[worker], on_error="ignore")
             self.client.close()
 
 
 def global_search(coarse: Residuals, n: int, seed: int, options: GlobalOptions,
                   progress: Callable[[str], None] | None = None,
-                  cache: dict[bytes, float] | None = None) -> tuple[np.ndarray, float, int, int]:
+                  cache: dict[bytes, float] | None = None,
+                  notes: list[str] | None = None) -> tuple[np.ndarray, float, int, int]:
     """Differential evolution over the unit box; returns (best u, its cost, nfev, failures).
-    `cache` maps candidates to costs already known (from a checkpoint) and collects new ones."""
+    `cache` maps candidates to costs already known (from a checkpoint) and collects new ones;
+    `notes` receives what the user should know about the search (a lost Dask worker)."""
     workers = options.workers or os.cpu_count() or 1
     evaluator = _Evaluator(coarse, workers, {} if cache is None else cache, options.scheduler)
     generation = [0]
@@ -136,6 +161,8 @@ def global_search(coarse: Residuals, n: int, seed: int, options: GlobalOptions,
                 workers=evaluator, callback=report)
     finally:
         evaluator.close()
+    if evaluator.lost and notes is not None:
+        notes.append(evaluator.lost)
     return result.x, float(result.fun), int(result.nfev), evaluator.failures
 
 
@@ -162,7 +189,8 @@ def optimize(residuals: Residuals, coarse: Residuals | None, u0: np.ndarray, see
     global_best = None
     messages = []
     if options.enabled and coarse is not None and len(u0):
-        u_global, global_best, nfev, failures = global_search(coarse, len(u0), seed, options, progress, cache)
+        u_global, global_best, nfev, failures = global_search(coarse, len(u0), seed, options, progress, cache,
+                                                                messages)
         # Keep the start the user gave if the global search found nothing better.
         if coarse.sum_of_squares(u_global) <= coarse.sum_of_squares(u0):
             u0 = u_global

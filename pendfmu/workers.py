@@ -43,11 +43,25 @@ _DASK_LOCK = threading.Lock()
 
 
 def dask_costs(candidates: list[np.ndarray], residuals: Residuals) -> list[tuple[float, int]]:
-    """On a Dask worker, a chunk of candidates: `residuals` was scattered once, so the worker
-    keeps one copy and its FMU instances across tasks (reset per run); the lock keeps a
-    multi-threaded worker from stepping those instances from two threads at once."""
+    """On a Dask worker, a chunk of candidates, for the worker's CandidateEvaluator (which
+    keeps `residuals` and so its FMU instances, reset per run, for the whole search) or as a
+    task when that actor's worker was lost. The lock keeps a multi-threaded worker from
+    stepping the same instances from two threads at once."""
     with _DASK_LOCK, threadpool_limits(1, user_api="blas"):
         return [cost_and_failures(residuals, u) for u in candidates]
+
+
+class CandidateEvaluator:
+    """A Dask actor: one per worker for the length of a global search, holding that worker's
+    residuals (and so its FMU instances, reset per run). Why an actor: the client calls it
+    directly, without the scheduler; a generation's round trip is then about 3 ms here
+    instead of 13-18 ms for a task, which two workers otherwise lost at every generation."""
+
+    def __init__(self, residuals: Residuals):
+        self.residuals = residuals
+
+    def costs(self, candidates: list[np.ndarray]) -> list[tuple[float, int]]:
+        return dask_costs(candidates, self.residuals)
 
 
 PROFILER_CALLBACKS = ("profile", "profile-cycle")

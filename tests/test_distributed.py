@@ -1,7 +1,7 @@
 """The global search on a Dask cluster (issue 6): a LocalCluster on loopback gives the same
 result file as local processes (deferred updating makes the search independent of who
-evaluates the candidates), and each Dask worker keeps one copy of the residuals and its
-FMU instances across tasks."""
+evaluates the candidates), each Dask worker's actor keeps the residuals and their FMU
+instances across generations, and a lost worker loses no candidates."""
 
 from __future__ import annotations
 
@@ -28,32 +28,45 @@ def test_dask_cluster_gives_the_same_result_as_local_processes(cluster, cart_rec
     assert result_without_time(tmp_path / "dask.json")["parameters"]["F_Kc"] == pytest.approx(7.0, rel=0.03)
 
 
-def test_workers_keep_their_fmu_instances_across_tasks(cluster, cart_recording):
-    """One scattered copy per worker: its simulators hold FMU instances after the first task."""
+def test_workers_keep_their_fmu_instances_across_generations(cluster, cart_recording):
+    """One actor per worker holds that worker's residuals: its simulators keep their FMU
+    instances from one generation to the next, and the two chunks of a generation go to
+    the two workers."""
+    import numpy as np
     from distributed import Client
 
     from pendfmu.experiment import make_experiment
     from pendfmu.identification import _free_parameters, rig_defaults
-    from pendfmu.workers import dask_costs
+    from pendfmu.optimizer import _Evaluator
     from pendfmu.recording import read_recording
     from pendfmu.residuals import Residuals
+    from pendfmu.workers import CandidateEvaluator
 
     values = rig_defaults()
     experiment = make_experiment(read_recording(cart_recording), "cart", values)
     residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
-    with Client(cluster.scheduler_address, set_as_default=False) as client:
-        remote = client.scatter(residuals, broadcast=True, hash=False)
-        client.gather(client.map(dask_costs, [[[0.5, 0.5, 0.5, 0.2]] * 2] * 4, residuals=remote, pure=False))
 
-        def instances(dask_worker):
-            copies = [v for v in dask_worker.data.values() if isinstance(v, Residuals)]
-            return [(c.evaluations, sum(len(s._fmus) for s in c.simulators)) for c in copies]
+    def instances(dask_worker):
+        copies = [a.residuals for a in dask_worker.state.actors.values() if isinstance(a, CandidateEvaluator)]
+        return [(c.evaluations, sum(len(s._fmus) for s in c.simulators), id(s._fmus["Cart"].slave.component))
+                for c in copies for s in c.simulators[:1]]
 
-        per_worker = client.run(instances)
-    counts = [pair for pairs in per_worker.values() for pair in pairs]
-    assert len(counts) == 2  # one copy on each worker
-    assert sum(evaluations for evaluations, _ in counts) == 8
-    assert all(fmus == 2 for evaluations, fmus in counts if evaluations)  # CurrentLoop and Cart, made once
+    evaluator = _Evaluator(residuals, 1, {}, cluster.scheduler_address)
+    try:
+        generation = [np.array([0.5, 0.5, 0.5, 0.2]) + 0.01 * k for k in range(4)]
+        evaluator(None, generation)
+        with Client(cluster.scheduler_address, set_as_default=False) as client:
+            first = client.run(instances)
+            evaluator(None, [u + 0.001 for u in generation])
+            second = client.run(instances)
+    finally:
+        evaluator.close()
+    assert sorted(first) == sorted(second) and len(first) == 2
+    for worker in first:
+        (evaluations_1, fmus_1, instance_1), = first[worker]
+        (evaluations_2, fmus_2, instance_2), = second[worker]
+        assert (evaluations_1, evaluations_2) == (2, 4)  # two candidates of each generation on each worker
+        assert fmus_1 == fmus_2 == 2 and instance_1 == instance_2  # CurrentLoop and Cart, made once
 
 
 def test_a_fit_pauses_the_workers_profiler_and_restores_it(cluster, cart_recording):
@@ -82,3 +95,38 @@ def test_a_fit_pauses_the_workers_profiler_and_restores_it(cluster, cart_recordi
         finally:
             evaluator.close()
         assert all(all(states) for states in client.run(running).values())
+
+
+def test_a_lost_worker_loses_no_candidates(cart_recording):
+    """Each worker evaluates its chunk in an actor, which cannot move: when its worker is
+    gone, the chunk runs as a task on a worker that is left, and the costs are the ones a
+    local evaluation gives."""
+    import time
+
+    import numpy as np
+
+    from pendfmu.experiment import make_experiment
+    from pendfmu.identification import _free_parameters, rig_defaults
+    from pendfmu.optimizer import _Evaluator
+    from pendfmu.recording import read_recording
+    from pendfmu.residuals import Residuals
+    from pendfmu.workers import cost_and_failures
+
+    values = rig_defaults()
+    experiment = make_experiment(read_recording(cart_recording), "cart", values)
+    residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
+    candidates = [np.array([0.5, 0.5, 0.5, 0.2]) + 0.01 * k for k in range(6)]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=":0",
+                                  processes=True) as cluster:  # ":0": the module's cluster has the default port
+        evaluator = _Evaluator(residuals, 1, {}, cluster.scheduler_address)
+        try:
+            cluster.scale(1)
+            deadline = time.monotonic() + 60
+            while len(evaluator.client.scheduler_info()["workers"]) > 1:
+                assert time.monotonic() < deadline, "the cluster did not drop a worker"
+                time.sleep(0.05)
+            costs = evaluator(None, candidates)
+        finally:
+            evaluator.close()
+    assert costs == [cost_and_failures(residuals, u)[0] for u in candidates]
+    assert evaluator.lost and "lost" in evaluator.lost
