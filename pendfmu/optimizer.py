@@ -52,6 +52,9 @@ class Outcome:
     messages: list[str] = field(default_factory=list)
 
 
+WORKER_WAIT = 60.0  # seconds a fit waits for a Dask scheduler's first worker
+
+
 class _Evaluator:
     """Evaluates differential evolution's candidates, in worker processes or here, and
     remembers every cost by the candidate's exact coordinates: the memory a checkpoint
@@ -70,6 +73,12 @@ class _Evaluator:
             except ImportError:
                 raise RuntimeError("--scheduler needs Dask: pip install 'pendfmu[distributed]'") from None
             self.client = Client(scheduler, set_as_default=False, direct_to_workers=True)
+            try:  # a cluster started with the fit may still be bringing its workers up
+                self.client.wait_for_workers(1, timeout=WORKER_WAIT)
+            except TimeoutError:
+                self.client.close()
+                raise RuntimeError(f"the Dask scheduler at {scheduler} has no workers "
+                                   f"(waited {WORKER_WAIT:g} s)") from None
             self.paused = self.client.run(pause_profiler)  # worker address -> callbacks stopped
             with self.client.as_current():  # the actors' proxies bind to this client, not a default one
                 self.actors = [self.client.submit(CandidateEvaluator, residuals, actor=True, workers=[worker],

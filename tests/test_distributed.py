@@ -130,3 +130,19 @@ def test_a_lost_worker_loses_no_candidates(cart_recording):
             evaluator.close()
     assert costs == [cost_and_failures(residuals, u)[0] for u in candidates]
     assert evaluator.lost and "lost" in evaluator.lost
+
+
+def test_a_scheduler_without_workers_is_a_clear_error(cart_recording, monkeypatch):
+    from pendfmu import optimizer
+    from pendfmu.experiment import make_experiment
+    from pendfmu.identification import _free_parameters, rig_defaults
+    from pendfmu.recording import read_recording
+    from pendfmu.residuals import Residuals
+
+    values = rig_defaults()
+    experiment = make_experiment(read_recording(cart_recording), "cart", values)
+    residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
+    monkeypatch.setattr(optimizer, "WORKER_WAIT", 0.5)
+    with distributed.LocalCluster(n_workers=0, host="127.0.0.1", dashboard_address=":0") as cluster:
+        with pytest.raises(RuntimeError, match=f"{cluster.scheduler_address} has no workers"):
+            optimizer._Evaluator(residuals, 1, {}, cluster.scheduler_address)
