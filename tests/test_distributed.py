@@ -20,6 +20,19 @@ def cluster():
         yield local
 
 
+@pytest.fixture
+def cart_residuals(cart_recording):
+    """The cart stage's residuals for the recording, as a fit builds them."""
+    from pendfmu.experiment import make_experiment
+    from pendfmu.identification import _free_parameters, rig_defaults
+    from pendfmu.recording import read_recording
+    from pendfmu.residuals import Residuals
+
+    values = rig_defaults()
+    experiment = make_experiment(read_recording(cart_recording), "cart", values)
+    return Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
+
+
 def test_dask_cluster_gives_the_same_result_as_local_processes(cluster, cart_recording, tmp_path):
     command = ["fit", "cart", str(cart_recording), "--seed", "11"]
     assert main(command + ["--out", str(tmp_path / "local.json"), "--workers", "2"]) == 0
@@ -28,30 +41,22 @@ def test_dask_cluster_gives_the_same_result_as_local_processes(cluster, cart_rec
     assert result_without_time(tmp_path / "dask.json")["parameters"]["F_Kc"] == pytest.approx(7.0, rel=0.03)
 
 
-def test_workers_keep_their_fmu_instances_across_generations(cluster, cart_recording):
+def test_workers_keep_their_fmu_instances_across_generations(cluster, cart_residuals):
     """One actor per worker holds that worker's residuals: its simulators keep their FMU
     instances from one generation to the next, and the two chunks of a generation go to
     the two workers."""
     import numpy as np
     from distributed import Client
 
-    from pendfmu.experiment import make_experiment
-    from pendfmu.identification import _free_parameters, rig_defaults
     from pendfmu.optimizer import _Evaluator
-    from pendfmu.recording import read_recording
-    from pendfmu.residuals import Residuals
     from pendfmu.workers import CandidateEvaluator
-
-    values = rig_defaults()
-    experiment = make_experiment(read_recording(cart_recording), "cart", values)
-    residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
 
     def instances(dask_worker):
         copies = [a.residuals for a in dask_worker.state.actors.values() if isinstance(a, CandidateEvaluator)]
         return [(c.evaluations, sum(len(s._fmus) for s in c.simulators), id(s._fmus["Cart"].slave.component))
                 for c in copies for s in c.simulators[:1]]
 
-    evaluator = _Evaluator(residuals, 1, {}, cluster.scheduler_address)
+    evaluator = _Evaluator(cart_residuals, 1, {}, cluster.scheduler_address)
     try:
         generation = [np.array([0.5, 0.5, 0.5, 0.2]) + 0.01 * k for k in range(4)]
         evaluator(None, generation)
@@ -69,27 +74,20 @@ def test_workers_keep_their_fmu_instances_across_generations(cluster, cart_recor
         assert fmus_1 == fmus_2 == 2 and instance_1 == instance_2  # CurrentLoop and Cart, made once
 
 
-def test_a_fit_pauses_the_workers_profiler_and_restores_it(cluster, cart_recording):
+def test_a_fit_pauses_the_workers_profiler_and_restores_it(cluster, cart_residuals):
     """Dask's statistical profiler samples a busy worker every 10 ms and slowed the
     simulations by 10-40 %: the evaluator stops it on every worker and starts it again."""
     from distributed import Client
 
-    from pendfmu.experiment import make_experiment
-    from pendfmu.identification import _free_parameters, rig_defaults
     from pendfmu.optimizer import _Evaluator
-    from pendfmu.residuals import Residuals
-    from pendfmu.recording import read_recording
     from pendfmu.workers import PROFILER_CALLBACKS
 
     def running(dask_worker):
         return [dask_worker.periodic_callbacks[name].is_running() for name in PROFILER_CALLBACKS]
 
-    values = rig_defaults()
-    experiment = make_experiment(read_recording(cart_recording), "cart", values)
-    residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
     with Client(cluster.scheduler_address, set_as_default=False) as client:
         assert all(all(states) for states in client.run(running).values())
-        evaluator = _Evaluator(residuals, 1, {}, cluster.scheduler_address)
+        evaluator = _Evaluator(cart_residuals, 1, {}, cluster.scheduler_address)
         try:
             assert not any(any(states) for states in client.run(running).values())
         finally:
@@ -97,7 +95,7 @@ def test_a_fit_pauses_the_workers_profiler_and_restores_it(cluster, cart_recordi
         assert all(all(states) for states in client.run(running).values())
 
 
-def test_a_lost_worker_loses_no_candidates(cart_recording):
+def test_a_lost_worker_loses_no_candidates(cart_residuals):
     """Each worker evaluates its chunk in an actor, which cannot move: when its worker is
     gone, the chunk runs as a task on a worker that is left, and the costs are the ones a
     local evaluation gives."""
@@ -105,20 +103,13 @@ def test_a_lost_worker_loses_no_candidates(cart_recording):
 
     import numpy as np
 
-    from pendfmu.experiment import make_experiment
-    from pendfmu.identification import _free_parameters, rig_defaults
     from pendfmu.optimizer import _Evaluator
-    from pendfmu.recording import read_recording
-    from pendfmu.residuals import Residuals
     from pendfmu.workers import cost_and_failures
 
-    values = rig_defaults()
-    experiment = make_experiment(read_recording(cart_recording), "cart", values)
-    residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
     candidates = [np.array([0.5, 0.5, 0.5, 0.2]) + 0.01 * k for k in range(6)]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=":0",
                                   processes=True) as cluster:  # ":0": the module's cluster has the default port
-        evaluator = _Evaluator(residuals, 1, {}, cluster.scheduler_address)
+        evaluator = _Evaluator(cart_residuals, 1, {}, cluster.scheduler_address)
         try:
             cluster.scale(1)
             deadline = time.monotonic() + 60
@@ -128,21 +119,14 @@ def test_a_lost_worker_loses_no_candidates(cart_recording):
             costs = evaluator(None, candidates)
         finally:
             evaluator.close()
-    assert costs == [cost_and_failures(residuals, u)[0] for u in candidates]
+    assert costs == [cost_and_failures(cart_residuals, u)[0] for u in candidates]
     assert evaluator.lost and "lost" in evaluator.lost
 
 
-def test_a_scheduler_without_workers_is_a_clear_error(cart_recording, monkeypatch):
+def test_a_scheduler_without_workers_is_a_clear_error(cart_residuals, monkeypatch):
     from pendfmu import optimizer
-    from pendfmu.experiment import make_experiment
-    from pendfmu.identification import _free_parameters, rig_defaults
-    from pendfmu.recording import read_recording
-    from pendfmu.residuals import Residuals
 
-    values = rig_defaults()
-    experiment = make_experiment(read_recording(cart_recording), "cart", values)
-    residuals = Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
     monkeypatch.setattr(optimizer, "WORKER_WAIT", 0.5)
     with distributed.LocalCluster(n_workers=0, host="127.0.0.1", dashboard_address=":0") as cluster:
         with pytest.raises(RuntimeError, match=f"{cluster.scheduler_address} has no workers"):
-            optimizer._Evaluator(residuals, 1, {}, cluster.scheduler_address)
+            optimizer._Evaluator(cart_residuals, 1, {}, cluster.scheduler_address)

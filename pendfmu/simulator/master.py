@@ -108,6 +108,8 @@ class Master:
         self.loops = algebraic_loops(self.connections,
                                      {n: feedthrough_of(t, self.fmus.get(n)) for n, t in self.types.items()})
         self.iterations = 0  # loop iterations done in the last run, for diagnostics
+        self._kept_timeline = None  # see _timeline and _drive
+        self._kept_drives: dict[tuple[str, str], tuple] = {}
 
     @classmethod
     def from_system(cls, system, **options) -> Master:
@@ -230,7 +232,7 @@ class Master:
         and building these arrays anew touched fresh memory every run; on these machines the
         page faults cost more than the arithmetic (about 2 ms of a 20 ms run of the rig).
         The kept arrays are read-only, so that frames can share the time column safely."""
-        kept = getattr(self, "_kept_timeline", None)
+        kept = self._kept_timeline
         if kept is not None and kept[0].shape == times.shape and np.array_equal(kept[0], times):
             return kept
         grid, record = self._grid(times)
@@ -244,14 +246,13 @@ class Master:
                steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The signal's values and slopes on the grid, kept (as the timeline is) while the
         signal's samples and the grid stay the same."""
-        kept = getattr(self, "_kept_drives", {}).get(target)
+        kept = self._kept_drives.get(target)
         if (kept is not None and kept[0] is grid and kept[1] == signal.interpolation
                 and np.array_equal(kept[2], signal.times) and np.array_equal(kept[3], signal.values)):
             return kept[4], kept[5]
         values, slopes = signal.values_and_slopes(grid, steps)
-        self._kept_drives = {**getattr(self, "_kept_drives", {}),
-                             target: (grid, signal.interpolation, signal.times.copy(), signal.values.copy(),
-                                      values, slopes)}
+        self._kept_drives[target] = (grid, signal.interpolation, signal.times.copy(), signal.values.copy(), values,
+                                     slopes)
         return values, slopes
 
     def _run_native(self, fmus, times, outputs, external, labels) -> pd.DataFrame:
