@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -22,10 +22,12 @@ from pendfmu.components import COMPONENTS
 from pendfmu.experiment import STAGES, Experiment, make_experiment
 from pendfmu.optimizer import GlobalOptions, optimize
 from pendfmu.parameters import ParameterFileError, check_parameters
+from pendfmu.plausibility import SuspiciousData, check_experiment
 from pendfmu.recording import Recording, RecordingError, read_recording
 from pendfmu.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.simulator.component import FMUError
-from pendfmu.result import Estimate, ExperimentFit, FitResult, estimate_uncertainty, nrmse
+from pendfmu.result import (Estimate, ExperimentFit, FitResult, estimate_uncertainty, flag_warnings, nrmse,
+                            unknown_uncertainty)
 
 # name: (low, high, logarithmic). Physical ranges wide enough for any lab rig.
 DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
@@ -131,11 +133,15 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
         free: Sequence[str] | None = None, fix: Sequence[str] = (),
         bounds: Mapping[str, tuple[float, float]] | None = None, seed: int = 0, drive: str | None = None,
         cost: str = "plain", global_search: GlobalOptions | None = None, progress: bool | None = None,
-        checkpoint: Checkpoint | None = None) -> FitResult:
+        checkpoint: Checkpoint | None = None, warn: Callable[[str], None] | None = None,
+        strict: bool = False) -> FitResult:
     """Fit `stage` ('current', 'cart' or 'pendulum') to one or more recordings jointly.
 
     With a checkpoint, the global search's evaluations are remembered in it (and taken from
-    it on a resumed run); Ctrl-C raises Interrupted with the best values found so far."""
+    it on a resumed run); Ctrl-C raises Interrupted with the best values found so far.
+    Recordings that look mis-scaled or undescribed (plausibility.py) are reported through
+    `warn` before the fit starts, and kept in the result's warnings; with `strict` they
+    raise SuspiciousData instead, before any simulation."""
     if stage not in STAGES:
         raise ParameterFileError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}, all")
     values = {**rig_defaults(), **check_parameters(params or {})}
@@ -143,6 +149,12 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
     names = [e.name for e in experiments]
     if len(set(names)) != len(names):
         raise RecordingError(f"two recordings share the name {sorted(n for n in names if names.count(n) > 1)[0]!r}")
+    data_warnings = [w for e in experiments for w in check_experiment(e)]
+    for warning in data_warnings:
+        if warn:
+            warn(warning)
+    if strict and data_warnings:
+        raise SuspiciousData(data_warnings)
     free_parameters = _free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values)
     options = global_search or GlobalOptions()
     residuals = Residuals(experiments, free_parameters, values, cost)
@@ -160,13 +172,20 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
             found = physical(free_parameters, u0 if best is None else best)
             shared = {p.name: float(v) for p, v in zip(free_parameters, found) if p.experiment is None}
             raise Interrupted({**values, **shared}, stage) from None
-        estimates, correlation = estimate_uncertainty(free_parameters, outcome.u, outcome.jacobian, outcome.residual)
         notes = list(outcome.messages)
+        try:
+            estimates, correlation = estimate_uncertainty(free_parameters, outcome.u, outcome.jacobian,
+                                                          outcome.residual)
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError) as error:  # the result is written regardless
+            estimates, correlation = unknown_uncertainty(free_parameters, outcome.u, f"{type(error).__name__}: "
+                                                         f"{error}"), {}
+            notes.append(f"the uncertainty could not be computed ({type(error).__name__}: {error}); "
+                         f"the estimates carry no interval")
+        warnings = list(data_warnings)
         spread = float(np.sqrt(np.mean(outcome.residual**2))) if len(outcome.residual) else 0.0
         if spread > MODEL_ERROR_LIMIT:
-            notes.append(f"the residuals are {spread:.3g} times the sensor noise: the model misses something "
-                         f"the recordings show (or the sidecar understates the noise), and the intervals, "
-                         f"which assume sensor noise only, are too narrow")
+            warnings.append(f"the residuals are {spread:.3g} times the sensor noise: the model misses something "
+                            f"the recordings show, the data are mis-scaled, or the sidecar understates the noise")
         if outcome.failures:
             notes.append(f"{outcome.failures} simulations failed during the fit and were penalized "
                          f"(last: {residuals.last_failure or coarse.last_failure})")
@@ -189,8 +208,11 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
         if p.experiment is not None:
             initial.setdefault(p.experiment, {})[p.name] = float(value)
     final = {**values, **fitted}
+    warnings += flag_warnings(estimates)
+    warnings += [note for note in notes if note.startswith("the local refinement stopped")]
     return FitResult(stage, final, estimates, correlation, 0.5 * float(outcome.residual @ outcome.residual),
-                     nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial, notes)
+                     nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial, notes,
+                     warnings=warnings)
 
 
 def _experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]:
@@ -286,6 +308,7 @@ def fit_current(recordings, params=None, seed: int = 0, cost: str = "plain", har
         return first
     bounds = {"a_h": (0.0, max(4 * found["a_h"], 1e-3)), "f_h": (0.9 * found["f_h"], 1.1 * found["f_h"]),
               "phase_h": (found["phase_h"] - math.pi, found["phase_h"] + math.pi), **options.pop("bounds", {})}
+    options.pop("warn", None)  # the recordings' warnings were given by the first pass
     second = fit("current", recordings, {**first.parameters, **found}, free=list(HARMONIC), bounds=bounds,
                  seed=seed, cost=cost, global_search=GlobalOptions(enabled=False), progress=progress, **options)
     second.notes.append(f"PWM ripple found in the residual near {found['f_h']:.6g} Hz and fitted")
@@ -308,12 +331,8 @@ def classify(recording: Recording) -> str | None:
     return None
 
 
-def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed: int = 0, cost: str = "plain",
-            global_search: GlobalOptions | None = None, progress: bool | None = None,
-            checkpoint: Checkpoint | None = None) -> FitResult:
-    """The paper's sequence on a folder of recordings: current, then cart, then pendulum,
-    each stage starting from the previous stage's result. Recordings with both x and phi
-    are not fitted; they check the identified model (see validate)."""
+def sort_folder(folder: str | Path) -> dict[str | None, list[Recording]]:
+    """A folder's recordings by the stage they belong to (None: validation recordings)."""
     folder = Path(folder)
     files = sorted(p for p in folder.iterdir() if p.suffix.lower() in (".csv", ".mat"))
     if not files:
@@ -322,6 +341,34 @@ def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed:
     for path in files:
         recording = read_recording(path)
         groups.setdefault(classify(recording), []).append(recording)
+    if not any(groups.get(stage) for stage in STAGES):
+        raise RecordingError(f"{folder}: no recording fits a stage (current: I_c and I; cart: x; pendulum: phi)")
+    return groups
+
+
+def check_recordings(stage: str, recordings: Sequence[str | Path | Recording],
+                     params: Mapping[str, float] | None = None, drive: str | None = None) -> list[str]:
+    """The plausibility warnings of a stage's recordings (plausibility.py), without fitting."""
+    values = {**rig_defaults(), **check_parameters(params or {})}
+    return [w for r in _recordings(recordings) for w in check_experiment(make_experiment(r, stage, values, drive))]
+
+
+def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed: int = 0, cost: str = "plain",
+            global_search: GlobalOptions | None = None, progress: bool | None = None,
+            checkpoint: Checkpoint | None = None, warn: Callable[[str], None] | None = None,
+            strict: bool = False) -> FitResult:
+    """The paper's sequence on a folder of recordings: current, then cart, then pendulum,
+    each stage starting from the previous stage's result. Recordings with both x and phi
+    are not fitted; they check the identified model (see validate). Every recording is
+    checked for plausibility before the first stage starts (see fit)."""
+    groups = sort_folder(folder)
+    data_warnings = [w for stage in STAGES if groups.get(stage)
+                     for w in check_recordings(stage, groups[stage], params)]
+    for warning in data_warnings:
+        if warn:
+            warn(warning)
+    if strict and data_warnings:
+        raise SuspiciousData(data_warnings)
     values = dict(params or {})
     results = []
     for stage in ("current", "cart", "pendulum"):
@@ -331,8 +378,6 @@ def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed:
                          progress=progress, checkpoint=checkpoint)
             values = dict(result.parameters)
             results.append(result)
-    if not results:
-        raise RecordingError(f"{folder}: no recording fits a stage (current: I_c and I; cart: x; pendulum: phi)")
     return _combine(results, values, groups.get(None, []))
 
 
@@ -363,7 +408,8 @@ def _combine(results: list[FitResult], values: dict[str, float], validation: lis
         {f"{r.stage}.{s}": v for r in results for s, v in r.nrmse.items()}, sum(r.nfev for r in results),
         sum(r.failures for r in results), sum(r.seconds for r in results),
         [e for r in results for e in r.experiments], {k: v for r in results for k, v in r.initial.items()},
-        [f"{r.stage}: {n}" for r in results for n in r.notes])
+        [f"{r.stage}: {n}" for r in results for n in r.notes],
+        warnings=[f"{r.stage}: {w}" for r in results for w in r.warnings])
     if validation:
         combined.validation = predict(values, validation)
         combined.notes.append("predicted, not fitted (recordings with both x and phi): "

@@ -27,7 +27,11 @@ CORRELATION_LIMIT = 0.95
 
 @dataclass
 class Estimate:
-    """One fitted quantity."""
+    """One fitted quantity.
+
+    `ci95` is the 95 % interval (an unbounded side is +-inf; None when none could be
+    given), `method` says what gave it ("jacobian", "bootstrap", "bounded", ...), `low`
+    and `high` are the search bounds, `flags` what the user must know about it."""
 
     label: str
     value: float
@@ -36,6 +40,7 @@ class Estimate:
     low: float
     high: float
     flags: list[str] = field(default_factory=list)
+    method: str = "jacobian"
 
 
 @dataclass
@@ -65,6 +70,10 @@ class FitResult:
     notes: list[str] = field(default_factory=list)
     # recordings not fitted but predicted with the result: name -> {"phi_rms_steps": ..., ...}
     validation: dict[str, dict[str, float]] = field(default_factory=dict)
+    # what looks wrong (mis-scaled data, residuals far above the noise, an estimate at a
+    # bound, a value assumed for want of a sidecar): printed on the console, and with
+    # --strict a non-zero exit code
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def stderr(self) -> dict[str, float | None]:
@@ -83,12 +92,13 @@ class FitResult:
         return {
             "parameters": dict(self.parameters),
             "stderr": {k: e.stderr for k, e in shared.items()},
-            "ci95": {k: list(e.ci95) if e.ci95 else None for k, e in shared.items()},
+            "ci95": {k: _json_interval(e.ci95) for k, e in shared.items()},
+            "interval_method": {k: e.method for k, e in shared.items()},
             "flags": {k: e.flags for k, e in self.estimates.items() if e.flags},
             "initial": self.initial,
             "fit": {"stage": self.stage, "cost": self.cost, "nrmse": self.nrmse, "nfev": self.nfev,
                     "failures": self.failures, "seconds": self.seconds, "notes": self.notes,
-                    "validation": self.validation},
+                    "warnings": self.warnings, "validation": self.validation},
         }
 
     def write_json(self, path: str | Path) -> Path:
@@ -107,6 +117,13 @@ class FitResult:
         return export_all(self.parameters, directory)
 
 
+def _json_interval(interval: tuple[float, float] | None) -> list[float | None] | None:
+    """An interval for JSON: an unbounded side is null (JSON has no infinity)."""
+    if interval is None:
+        return None
+    return [float(b) if math.isfinite(b) else None for b in interval]
+
+
 def _plain(value):
     if isinstance(value, np.generic):
         return value.item()
@@ -115,7 +132,10 @@ def _plain(value):
 
 def estimate_uncertainty(free: list[FreeParameter], u: np.ndarray, jacobian: np.ndarray,
                          residual: np.ndarray) -> tuple[dict[str, Estimate], dict[str, dict[str, float]]]:
-    """Estimates with standard errors, 95 % intervals, correlations and flags."""
+    """The fast interval ("jacobian"): cov = s^2 (J^T J)^+ at the optimum, as if the
+    residuals were independent. Quantization and model errors come in long correlated
+    runs, so on real recordings this is far too narrow; it is kept as a labelled fast
+    option and as the bootstrap's linearization."""
     m, n = jacobian.shape
     variance = float(residual @ residual) / max(m - n, 1)
     norms = np.linalg.norm(jacobian, axis=0) if n else np.zeros(0)
@@ -124,49 +144,130 @@ def estimate_uncertainty(free: list[FreeParameter], u: np.ndarray, jacobian: np.
     covariance = np.zeros((n, n))
     if sensitive.any():
         J = jacobian[:, sensitive]
-        covariance_u = variance * np.linalg.pinv(J.T @ J)
-        covariance = G[:, sensitive] @ covariance_u @ G[:, sensitive].T
+        with np.errstate(all="ignore"):
+            covariance_u = variance * np.linalg.pinv(J.T @ J)
+            covariance = G[:, sensitive] @ covariance_u @ G[:, sensitive].T
     # A parameter that moves with an insensitive coordinate is not determined at all.
     undetermined = (np.abs(G[:, ~sensitive]) > 0).any(axis=1) if n else np.zeros(0, bool)
     covariance[undetermined, :] = np.nan
     covariance[:, undetermined] = np.nan
     sigma = np.sqrt(np.clip(np.diag(covariance), 0, None))
-    sensitive = ~undetermined
     values = physical(free, u)
     estimates: dict[str, Estimate] = {}
     for k, p in enumerate(free):
-        value = float(values[k])
-        estimate = Estimate(p.label, value, None, None, p.low, p.high)
-        if sensitive[k] and np.isfinite(sigma[k]):
+        estimate = Estimate(p.label, float(values[k]), None, None, p.low, p.high, method="jacobian")
+        if not undetermined[k] and np.isfinite(sigma[k]):
             estimate.stderr = float(sigma[k])
-            estimate.ci95 = _interval(value, float(sigma[k]), positive=p.log or p.relative_to is not None)
-            if estimate.ci95[1] - estimate.ci95[0] > abs(value):
-                estimate.flags.append(f"95 % interval [{estimate.ci95[0]:.4g}, {estimate.ci95[1]:.4g}] is wider "
-                                      f"than the value: the recordings hardly determine it")
-        else:
+            estimate.ci95 = interval(estimate.value, estimate.stderr, positive(p), p.name)
+        elif not at_bound(u[k]):
             estimate.flags.append("the recordings do not depend on it (zero sensitivity): not identifiable here")
-        if u[k] <= 1e-6 or u[k] >= 1 - 1e-6:
-            estimate.flags.append(_bound_flag(p, u[k] <= 1e-6))
         estimates[p.label] = estimate
-    correlation: dict[str, dict[str, float]] = {}
-    for i, p in enumerate(free):
-        correlation[p.label] = {}
-        for j, q in enumerate(free):
-            denominator = sigma[i] * sigma[j]
-            value = covariance[i, j] / denominator if denominator > 0 else float("nan")
-            correlation[p.label][q.label] = float(value) if math.isfinite(value) else None
-            if i != j and math.isfinite(value) and abs(value) > CORRELATION_LIMIT:
-                estimates[p.label].flags.append(f"correlated {value:+.3f} with {q.label}: only a combination of the "
-                                                f"two is determined")
+    correlation = correlation_table(free, covariance)
+    add_flags(estimates, correlation, free, u)
     return estimates, correlation
 
 
-def _interval(value: float, sigma: float, positive: bool) -> tuple[float, float]:
-    """95 % interval; for a positive quantity taken on the log scale, so it stays positive."""
-    if positive and value > 0:
-        factor = math.exp(Z95 * sigma / value)
-        return value / factor, value * factor
-    return value - Z95 * sigma, value + Z95 * sigma
+def positive(p: FreeParameter) -> bool:
+    """Whether a parameter's interval is taken on the log scale (it is positive by nature)."""
+    return p.log or p.relative_to is not None
+
+
+LOG_LIMIT = 700.0  # exp() of more overflows a double
+
+
+def interval(value: float, sigma: float, log_scale: bool, name: str = "", quantile: float = Z95) -> tuple[float, float]:
+    """value -+ quantile * sigma, on the log scale for a positive quantity (sigma / value
+    is then its relative spread), so that it stays positive; clipped to the parameter's
+    physical range (eta <= 1). A spread too large for floating point is an unbounded side,
+    never an overflow: the result must be written whatever the statistics do."""
+    if not math.isfinite(sigma) or not math.isfinite(value):
+        low, high = -math.inf, math.inf
+    elif log_scale and value > 0:
+        spread = quantile * sigma / value
+        if spread > LOG_LIMIT:
+            low, high = 0.0, math.inf
+        else:
+            factor = math.exp(spread)
+            low, high = value / factor, value * factor
+    else:
+        low, high = value - quantile * sigma, value + quantile * sigma
+    return clip_to_range(name, (low, high))
+
+
+def clip_to_range(name: str, bounds: tuple[float, float]) -> tuple[float, float]:
+    """An interval cut to the physical range of the parameter `name` (MODEL.md's table)."""
+    from pendfmu.parameters import known_parameters
+
+    variable = known_parameters().get(name)
+    low, high = bounds
+    if variable is not None:
+        if variable.low is not None:
+            low = max(low, variable.low)
+        if variable.high is not None:
+            high = min(high, variable.high)
+    return float(low), float(high)
+
+
+def at_bound(u: float) -> bool:
+    return u <= 1e-6 or u >= 1 - 1e-6
+
+
+def correlation_table(free: list[FreeParameter], covariance: np.ndarray) -> dict[str, dict[str, float | None]]:
+    sigma = np.sqrt(np.clip(np.diag(covariance), 0, None)) if len(free) else np.zeros(0)
+    table: dict[str, dict[str, float | None]] = {}
+    for i, p in enumerate(free):
+        table[p.label] = {}
+        for j, q in enumerate(free):
+            denominator = sigma[i] * sigma[j]
+            value = covariance[i, j] / denominator if denominator > 0 else float("nan")
+            table[p.label][q.label] = float(value) if math.isfinite(value) else None
+    return table
+
+
+def add_flags(estimates: dict[str, Estimate], correlation: dict[str, dict[str, float | None]],
+              free: list[FreeParameter], u: np.ndarray) -> None:
+    """The flags every method shares: at a search bound, an interval wider than the value
+    or unbounded, a correlation above the limit. Each flag gives its true reason."""
+    for k, p in enumerate(free):
+        estimate = estimates[p.label]
+        if at_bound(u[k]):
+            estimate.flags.append(_bound_flag(p, u[k] <= 1e-6))
+        if estimate.ci95 is not None:
+            low, high = estimate.ci95
+            if not (math.isfinite(low) and math.isfinite(high)):
+                estimate.flags.append(f"unbounded: the 95 % interval is [{low:.4g}, {high:.4g}]; the recordings do "
+                                      f"not bound it on that side")
+            elif high - low > abs(estimate.value):
+                estimate.flags.append(f"95 % interval [{low:.4g}, {high:.4g}] is wider than the value: the "
+                                      f"recordings hardly determine it")
+        for q in free:
+            value = correlation.get(p.label, {}).get(q.label)
+            if q is not p and value is not None and abs(value) > CORRELATION_LIMIT:
+                estimate.flags.append(f"correlated {value:+.3f} with {q.label}: only a combination of the two is "
+                                      f"determined")
+
+
+WARNING_FLAGS = ("at its lower bound", "at its upper bound", "unbounded", "no interval")
+
+
+def flag_warnings(estimates: dict[str, Estimate]) -> list[str]:
+    """The flags that must reach the console as warnings: an estimate at a search bound
+    (the optimum may lie beyond), an unbounded interval, no interval at all."""
+    warnings = []
+    for label, estimate in estimates.items():
+        for flag in estimate.flags:
+            if flag.startswith(WARNING_FLAGS) or "the upper bound of the search" in flag:
+                warnings.append(f"{label}: {flag}")
+    return warnings
+
+
+def unknown_uncertainty(free: list[FreeParameter], u: np.ndarray, reason: str) -> dict[str, Estimate]:
+    """Estimates without intervals, when the statistics themselves failed: the values are
+    still the fit's, and the result is still written."""
+    values = physical(free, u)
+    return {p.label: Estimate(p.label, float(v), None, None, p.low, p.high,
+                              [f"no interval: the uncertainty could not be computed ({reason})"], method="none")
+            for p, v in zip(free, values)}
 
 
 def _bound_flag(p: FreeParameter, lower: bool) -> str:

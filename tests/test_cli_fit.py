@@ -60,6 +60,6 @@ def test_a_model_that_misses_part_of_the_recording_is_reported(tmp_path):
     experiment = Experiment("rippled", "current", 0.012, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))
     write_experiments(tmp_path, {"a_h": 0.05, "f_h": 3000.0}, seed=4, experiments=[experiment])
     without = fit_current([tmp_path / "rippled.csv"], harmonic=False, seed=1, progress=False)
-    assert any("times the sensor noise" in note for note in without.notes)
+    assert any("times the sensor noise" in warning for warning in without.warnings)
     with_ripple = fit_current([tmp_path / "rippled.csv"], seed=1, progress=False)
-    assert not any("times the sensor noise" in note for note in with_ripple.notes)
+    assert not any("times the sensor noise" in warning for warning in with_ripple.warnings)

@@ -2,7 +2,8 @@
 
 One module per subcommand, each with ``add_arguments(parser)`` and ``run(args)``.
 Exit codes (a contract other tools script against): 0 success, 2 bad input (a one-line
-message naming the file, column or value; no traceback), 1 internal failure.
+message naming the file, column or value; no traceback), 1 internal failure, 3 warnings
+under ``--strict`` (suspicious data: nothing fitted; a suspicious result: written).
 """
 
 from __future__ import annotations

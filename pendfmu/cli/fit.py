@@ -36,6 +36,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--checkpoint", help="checkpoint file written on Ctrl-C (default: OUT with .checkpoint)")
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted fit from its checkpoint (same command otherwise)")
+    parser.add_argument("--strict", action="store_true",
+                        help="exit with code 3 on any warning (suspicious data: before fitting; suspicious "
+                             "result: after writing it)")
 
 
 def _bounds(items: list[str]) -> dict[str, tuple[float, float]]:
@@ -54,15 +57,27 @@ def _bounds(items: list[str]) -> dict[str, tuple[float, float]]:
     return bounds
 
 
+STRICT_EXIT = 3  # finished with warnings under --strict (the result file is written when a fit ran)
+
+
 def run(args: argparse.Namespace) -> int:
+    import sys
     from pathlib import Path
 
     from pendfmu.checkpoint import Checkpoint, Interrupted, fingerprint
+    from pendfmu.cli.outputs import check_output_file, check_output_folder
     from pendfmu.errors import UsageError
     from pendfmu.identification import fit, fit_all, fit_current
     from pendfmu.optimizer import GlobalOptions
     from pendfmu.parameters import read_parameters, write_parameters
+    from pendfmu.plausibility import SuspiciousData
 
+    check_output_file(args.out, "--out")
+    if args.report:
+        check_output_folder(args.report, "--report")
+    path = check_output_file(args.checkpoint or f"{args.out}.checkpoint", "--checkpoint")
+    if args.stage == "all" and len(args.recordings) != 1:
+        raise UsageError("fit all takes one folder of recordings")
     params = read_parameters(args.params) if args.params else {}
     options = GlobalOptions(enabled=not args.no_global, workers=args.workers, scheduler=args.scheduler)
     bounds = _bounds(args.bounds)
@@ -71,13 +86,17 @@ def run(args: argparse.Namespace) -> int:
     files = [f for f in files if f.suffix.lower() in (".csv", ".mat") and f.is_file()]
     key = fingerprint(args.stage, sorted(params.items()), args.seed, args.cost, args.free, args.fix,
                       sorted(bounds.items()), args.drive, args.no_global, files=files)
-    path = Path(args.checkpoint or f"{args.out}.checkpoint")
     checkpoint = Checkpoint.load(path, key) if args.resume else Checkpoint(path, key)
-    common = dict(seed=args.seed, cost=args.cost, global_search=options, checkpoint=checkpoint)
+    printed: list[str] = []
+
+    def warn(message: str) -> None:
+        printed.append(message)
+        print(f"warning: {message}", file=sys.stderr, flush=True)
+
+    common = dict(seed=args.seed, cost=args.cost, global_search=options, checkpoint=checkpoint, warn=warn,
+                  strict=args.strict)
     try:
         if args.stage == "all":
-            if len(args.recordings) != 1:
-                raise UsageError("fit all takes one folder of recordings")
             result = fit_all(args.recordings[0], params, **common)
         else:
             common.update(fix=args.fix, bounds=bounds, drive=args.drive)
@@ -85,6 +104,9 @@ def run(args: argparse.Namespace) -> int:
                 result = fit_current(args.recordings, params, **common)
             else:
                 result = fit(args.stage, args.recordings, params, free=args.free, **common)
+    except SuspiciousData:
+        print(f"pendfmu fit: --strict: not fitted, the recordings look wrong (warnings above)", file=sys.stderr)
+        return STRICT_EXIT
     except Interrupted as stop:
         write_parameters(stop.parameters, args.out, interrupted=f"{stop} (best values so far)")
         checkpoint.save()
@@ -95,9 +117,16 @@ def run(args: argparse.Namespace) -> int:
     if path.exists():
         path.unlink()  # the fit is complete: its checkpoint has served
     print(f"wrote {args.out}: {_summary(result)}")
+    for line in _details(result):
+        print(line)
     if args.report:
         print(f"report: {result.write_report(args.report)}")
-    return 0
+    late = [w for w in result.warnings if not any(w.endswith(p) for p in printed)]
+    for message in late:
+        print(f"warning: {message}", file=sys.stderr)
+    if result.warnings:
+        print(f"{len(result.warnings)} warning(s); they are also in {args.out} (fit.warnings)", file=sys.stderr)
+    return STRICT_EXIT if args.strict and result.warnings else 0
 
 
 def _summary(result) -> str:
@@ -110,3 +139,11 @@ def _summary(result) -> str:
         else:
             parts.append(f"{label} = {estimate.value:.6g} (undetermined)")
     return "; ".join(parts)
+
+
+def _details(result) -> list[str]:
+    """The notes and flags, printed with the summary: a file alone is not read."""
+    lines = [f"note: {note}" for note in result.notes]
+    lines += [f"flag {label}: {flag}" for label, estimate in result.estimates.items() for flag in estimate.flags
+              if not any(w.endswith(f"{label}: {flag}") for w in result.warnings)]  # those print as warnings
+    return lines

@@ -53,6 +53,7 @@ class Recording:
     parameters: dict[str, float] = field(default_factory=dict)
     initial: dict[str, float] = field(default_factory=dict)
     ignored: tuple[str, ...] = ()
+    sidecar: Path | None = None  # the sidecar file it was read with, if any
 
     def __post_init__(self) -> None:
         path = None if self.path is None else Path(self.path)
@@ -93,6 +94,12 @@ class Recording:
     def source(self) -> str:
         """The file this recording came from, as error messages name it."""
         return "<recording in memory>" if self.path is None else str(self.path)
+
+    @property
+    def undescribed(self) -> bool:
+        """Nothing states how this run was made: no sidecar, and no sensor, parameter or
+        initial-state information given otherwise. Its fixed values are then assumed."""
+        return self.sidecar is None and not (self.experiment or self.signal_info or self.parameters or self.initial)
 
     @property
     def names(self) -> tuple[str, ...]:

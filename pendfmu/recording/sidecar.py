@@ -184,4 +184,4 @@ def _build(path: Path, time: np.ndarray, signals: dict[str, np.ndarray], sidecar
     """The Recording of a checked file and its sidecar."""
     return Recording(path=path, time=time, signals=signals, experiment=sidecar.experiment,
                      signal_info=sidecar.signal_info, parameters=sidecar.parameters, initial=sidecar.initial,
-                     ignored=tuple(ignored))
+                     ignored=tuple(ignored), sidecar=sidecar.path)

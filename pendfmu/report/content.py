@@ -53,7 +53,7 @@ def interval_text(low: float, high: float) -> str:
     interval of 12 N printed as [12, 12] would say nothing."""
     low, high = float(low), float(high)
     digits = 4
-    if high > low:
+    if high > low and math.isfinite(high - low):
         digits = min(12, max(4, math.ceil(math.log10(max(abs(low), abs(high)) / (high - low))) + 2))
     return f"[{low:.{digits}g}, {high:.{digits}g}]"
 

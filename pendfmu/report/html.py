@@ -9,6 +9,7 @@ from a result (names, notes, flags, recording names) is escaped here, in one pla
 from __future__ import annotations
 
 import html
+import math
 from collections.abc import Iterable, Sequence
 
 from pendfmu.report.content import (SignalError, bounded_only, component_of, description, finite,
@@ -57,7 +58,10 @@ def number(value, digits: int = 6) -> str:
 
 
 def interval(bounds: Sequence[float] | None) -> str:
-    return DASH if bounds is None or not all(finite(b) for b in bounds) else interval_text(*bounds)
+    """An interval for a table cell; an unbounded side shows as inf."""
+    if bounds is None or any(math.isnan(float(b)) for b in bounds):
+        return DASH
+    return interval_text(*bounds)
 
 
 def _cell(content: str, css: str = "") -> str:
