@@ -26,8 +26,10 @@ from pendfmu.plausibility import SuspiciousData, check_experiment
 from pendfmu.recording import Recording, RecordingError, read_recording
 from pendfmu.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.simulator.component import FMUError
-from pendfmu.result import (Estimate, ExperimentFit, FitResult, estimate_uncertainty, flag_warnings, nrmse,
-                            unknown_uncertainty)
+from pendfmu.stiction import JOINTS, bounded_set
+from pendfmu.stiction import evidence as stiction_evidence
+from pendfmu.result import Estimate, ExperimentFit, FitResult, flag_warnings, nrmse
+from pendfmu.uncertainty import REPLICATES, assess_uncertainty
 
 # name: (low, high, logarithmic). Physical ranges wide enough for any lab rig.
 DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
@@ -134,8 +136,14 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
         bounds: Mapping[str, tuple[float, float]] | None = None, seed: int = 0, drive: str | None = None,
         cost: str = "plain", global_search: GlobalOptions | None = None, progress: bool | None = None,
         checkpoint: Checkpoint | None = None, warn: Callable[[str], None] | None = None,
-        strict: bool = False) -> FitResult:
+        strict: bool = False, uncertainty: str = "bootstrap", replicates: int = REPLICATES,
+        upstream: Sequence[Mapping[str, float]] | None = None) -> FitResult:
     """Fit `stage` ('current', 'cart' or 'pendulum') to one or more recordings jointly.
+
+    `uncertainty` chooses the intervals (uncertainty.py): "bootstrap" (calibrated, the
+    default; `replicates` refits) or "jacobian" (fast, too narrow on quantized data).
+    `upstream` gives, per replicate, the values an earlier stage's bootstrap found, so
+    that this stage's intervals carry that stage's uncertainty (fit_all passes them).
 
     With a checkpoint, the global search's evaluations are remembered in it (and taken from
     it on a resumed run); Ctrl-C raises Interrupted with the best values found so far.
@@ -173,14 +181,10 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
             shared = {p.name: float(v) for p, v in zip(free_parameters, found) if p.experiment is None}
             raise Interrupted({**values, **shared}, stage) from None
         notes = list(outcome.messages)
-        try:
-            estimates, correlation = estimate_uncertainty(free_parameters, outcome.u, outcome.jacobian,
-                                                          outcome.residual)
-        except (ArithmeticError, ValueError, np.linalg.LinAlgError) as error:  # the result is written regardless
-            estimates, correlation = unknown_uncertainty(free_parameters, outcome.u, f"{type(error).__name__}: "
-                                                         f"{error}"), {}
-            notes.append(f"the uncertainty could not be computed ({type(error).__name__}: {error}); "
-                         f"the estimates carry no interval")
+        bar("uncertainty")
+        assessed = assess_uncertainty(uncertainty, residuals, outcome, replicates, upstream, options)
+        estimates, correlation = assessed.estimates, assessed.correlation
+        notes += assessed.notes
         warnings = list(data_warnings)
         spread = float(np.sqrt(np.mean(outcome.residual**2))) if len(outcome.residual) else 0.0
         if spread > MODEL_ERROR_LIMIT:
@@ -191,8 +195,8 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
                          f"(last: {residuals.last_failure or coarse.last_failure})")
         found = physical(free_parameters, outcome.u)
         fitted = {p.name: float(v) for p, v in zip(free_parameters, found) if p.experiment is None}
-        if stage == "pendulum" and "T_Sp" in fitted:
-            notes += _bound_stiction(residuals, outcome.u, free_parameters, estimates, fitted)
+        if stage in JOINTS:
+            notes += _bound_stiction(stage, residuals, outcome.u, estimates, fitted, assessed.values)
         final_values = [fitted.get(p.name, v) if p.experiment is None else v for p, v in zip(free_parameters, found)]
         try:
             fits = _experiment_fits(residuals, unit_of(free_parameters, final_values))
@@ -212,7 +216,7 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
     warnings += [note for note in notes if note.startswith("the local refinement stopped")]
     return FitResult(stage, final, estimates, correlation, 0.5 * float(outcome.residual @ outcome.residual),
                      nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial, notes,
-                     warnings=warnings)
+                     warnings=warnings, uncertainty=assessed.summary, replicates=assessed.replicates)
 
 
 def _experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]:
@@ -225,38 +229,37 @@ def _experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]
     return fits
 
 
-def _bound_stiction(residuals: Residuals, u: np.ndarray, free: list[FreeParameter],
-                    estimates: dict[str, Estimate], fitted: dict[str, float]) -> list[str]:
-    """A free decay only bounds T_Sp: the swing sticks at the first turning point where
-    the active torque is within the threshold max(T_Sp, T_Kp). Every T_Sp between the
-    torque at the final rest and the smallest torque of an earlier reversal gives the same
-    recording. If the recordings pin T_Sp (a nonzero sensitivity, e.g. with the rocking
-    experiment), it keeps its ordinary standard error."""
-    estimate = estimates["T_Sp"]
-    if estimate.stderr is not None and not any("wider than the value" in f for f in estimate.flags):
+def _bound_stiction(stage: str, residuals: Residuals, u: np.ndarray, estimates: dict[str, Estimate],
+                    fitted: dict[str, float], replicates: np.ndarray | None) -> list[str]:
+    """Stiction that the recordings only bound (stiction.py: no breakaway of a joint at
+    rest in any of them) is reported as that set, the same for every seed, with the least
+    stiction the recordings demand as its value."""
+    joint = JOINTS[stage]
+    if joint.stiction not in estimates:
         return []
-    low, high = 0.0, math.inf
-    for simulated in residuals.simulate(u, extra=("T_A", "w", "alpha")):
-        torque = np.abs(simulated["T_A"])
-        moving = (simulated["w"] != 0) | (simulated["alpha"] != 0)  # stuck is exactly w = alpha = 0
-        reversal = moving[:-1] & moving[1:] & (np.sign(simulated["w"][:-1]) != np.sign(simulated["w"][1:]))
-        if reversal.any():
-            high = min(high, float(torque[1:][reversal].min()))
-        if not moving[-1] and moving.any():
-            low = max(low, float(torque[-1]))
-    T_K = fitted.get("T_Kp", 0.0)
-    if T_K >= low:
-        low = 0.0  # the kinetic torque alone already holds the final rest
-    if not math.isfinite(high) or not high > low:
-        return ["T_Sp: the recordings neither show the pendulum stick nor reverse; no bound on T_Sp"]
-    # The least-assuming value: no more stiction than the recordings demand.
-    value = max(low, fitted.get("T_Kp", 0.0))
-    fitted["T_Sp"] = value
-    estimates["T_Sp"] = replace(estimate, value=value, stderr=None, ci95=(low, high), flags=[
-        f"bounded only: every T_Sp in [{low:.4g}, {high:.4g}] N.m gives the same free decay (the swing sticks at "
-        f"the first turning point where |T_A| <= T_Sp); the value given is the least stiction the recordings demand. Record the "
-        f"'pendulum-stiction' experiment (pendfmu rig) to pin it down"])
-    return [f"T_Sp is set-identified by the free decay: [{low:.4g}, {high:.4g}] N.m"]
+    extra = (joint.force, joint.speed, joint.acceleration)
+    found = stiction_evidence(residuals.simulate(u, extra=extra), joint)
+    others = []
+    for row in replicates if replicates is not None else []:
+        if not np.isnan(row).any():
+            try:
+                others.append(stiction_evidence(residuals.simulate(unit_of(residuals.free, row), extra=extra), joint))
+            except FMUError:
+                continue
+    coulomb = fitted.get(joint.coulomb, residuals.shared.get(joint.coulomb, 0.0))
+    bounds = bounded_set(found, others, coulomb)
+    if bounds is None:
+        return []
+    low, high = bounds
+    fitted[joint.stiction] = low
+    estimates[joint.stiction] = replace(
+        estimates[joint.stiction], value=low, stderr=None, ci95=(low, high), method="bounded", flags=[
+            f"bounded only: every {joint.stiction} in [{low:.4g}, {high:.4g}] {joint.unit} gives the same recordings "
+            f"(no joint at rest broke away in them: they only show where it stuck or reversed); the value given is "
+            f"the least stiction the recordings demand"
+            + (". Record the 'pendulum-stiction' experiment (pendfmu rig) to pin it down" if stage == "pendulum"
+               else ". Record a slow ramp of the drive from rest to pin it down")])
+    return [f"{joint.stiction} is set-identified: [{low:.4g}, {high:.4g}] {joint.unit}"]
 
 
 HARMONIC = ("a_h", "f_h", "phase_h")
@@ -298,23 +301,37 @@ def fit_current(recordings, params=None, seed: int = 0, cost: str = "plain", har
                 checkpoint: Checkpoint | None = None, **options) -> FitResult:
     """The current stage, with the PWM ripple: unless harmonic=False, a harmonic found in
     the residual of the lag fit is added to the free parameters and fitted with them."""
+    uncertainty = options.pop("uncertainty", "bootstrap")
+    settled = harmonic is False or any(name in (options.get("free") or ()) for name in HARMONIC)
     first = fit("current", recordings, params, seed=seed, cost=cost, global_search=global_search,
-                progress=progress, checkpoint=checkpoint, **options)
-    if harmonic is False or any(name in first.estimates for name in HARMONIC):
+                progress=progress, checkpoint=checkpoint, uncertainty=uncertainty if settled else "jacobian",
+                **options)
+    if settled:
         return first
     found = detect_harmonic(first)
+    options.pop("warn", None)  # the recordings' warnings were given by the first pass
     if found is None:
-        first.notes.append("no PWM ripple found in the residual (harmonic not fitted)")
-        return first
+        # The lag alone it is: its intervals, by the method asked for, from the optimum found.
+        final = fit("current", recordings, {**(params or {}), **_fitted(first)}, seed=seed, cost=cost,
+                    global_search=GlobalOptions(enabled=False), progress=progress, uncertainty=uncertainty, **options)
+        final.notes.append("no PWM ripple found in the residual (harmonic not fitted)")
+        final.nfev += first.nfev
+        final.seconds += first.seconds
+        return final
     bounds = {"a_h": (0.0, max(4 * found["a_h"], 1e-3)), "f_h": (0.9 * found["f_h"], 1.1 * found["f_h"]),
               "phase_h": (found["phase_h"] - math.pi, found["phase_h"] + math.pi), **options.pop("bounds", {})}
-    options.pop("warn", None)  # the recordings' warnings were given by the first pass
     second = fit("current", recordings, {**first.parameters, **found}, free=list(HARMONIC), bounds=bounds,
-                 seed=seed, cost=cost, global_search=GlobalOptions(enabled=False), progress=progress, **options)
+                 seed=seed, cost=cost, global_search=GlobalOptions(enabled=False), progress=progress,
+                 uncertainty=uncertainty, **options)
     second.notes.append(f"PWM ripple found in the residual near {found['f_h']:.6g} Hz and fitted")
     second.nfev += first.nfev
     second.seconds += first.seconds
     return second
+
+
+def _fitted(result: FitResult) -> dict[str, float]:
+    """The stage's fitted rig parameters (not per-recording initial states)."""
+    return {label: e.value for label, e in result.estimates.items() if "[" not in label}
 
 
 def classify(recording: Recording) -> str | None:
@@ -356,7 +373,7 @@ def check_recordings(stage: str, recordings: Sequence[str | Path | Recording],
 def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed: int = 0, cost: str = "plain",
             global_search: GlobalOptions | None = None, progress: bool | None = None,
             checkpoint: Checkpoint | None = None, warn: Callable[[str], None] | None = None,
-            strict: bool = False) -> FitResult:
+            strict: bool = False, uncertainty: str = "bootstrap", replicates: int = REPLICATES) -> FitResult:
     """The paper's sequence on a folder of recordings: current, then cart, then pendulum,
     each stage starting from the previous stage's result. Recordings with both x and phi
     are not fitted; they check the identified model (see validate). Every recording is
@@ -371,12 +388,16 @@ def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed:
         raise SuspiciousData(data_warnings)
     values = dict(params or {})
     results = []
+    upstream: list[dict[str, float]] = []  # per bootstrap replicate, every earlier stage's values
     for stage in ("current", "cart", "pendulum"):
         if groups.get(stage):
             run = fit_current if stage == "current" else (lambda *a, **k: fit(stage, *a, **k))
             result = run(groups[stage], values, seed=seed, cost=cost, global_search=global_search,
-                         progress=progress, checkpoint=checkpoint)
+                         progress=progress, checkpoint=checkpoint, uncertainty=uncertainty, replicates=replicates,
+                         upstream=upstream or None)
             values = dict(result.parameters)
+            upstream = [{**(upstream[b] if upstream else {}), **replicate}
+                        for b, replicate in enumerate(result.replicates)] or upstream
             results.append(result)
     return _combine(results, values, groups.get(None, []))
 
@@ -409,7 +430,8 @@ def _combine(results: list[FitResult], values: dict[str, float], validation: lis
         sum(r.failures for r in results), sum(r.seconds for r in results),
         [e for r in results for e in r.experiments], {k: v for r in results for k, v in r.initial.items()},
         [f"{r.stage}: {n}" for r in results for n in r.notes],
-        warnings=[f"{r.stage}: {w}" for r in results for w in r.warnings])
+        warnings=[f"{r.stage}: {w}" for r in results for w in r.warnings],
+        uncertainty={r.stage: r.uncertainty for r in results})
     if validation:
         combined.validation = predict(values, validation)
         combined.notes.append("predicted, not fitted (recordings with both x and phi): "

@@ -74,6 +74,9 @@ class FitResult:
     # bound, a value assumed for want of a sidecar): printed on the console, and with
     # --strict a non-zero exit code
     warnings: list[str] = field(default_factory=list)
+    uncertainty: dict = field(default_factory=dict)  # how the intervals were made (method, replicates, time)
+    # per bootstrap replicate, the stage's fitted values (not written: later stages take them)
+    replicates: list[dict[str, float]] = field(default_factory=list, repr=False)
 
     @property
     def stderr(self) -> dict[str, float | None]:
@@ -98,7 +101,7 @@ class FitResult:
             "initial": self.initial,
             "fit": {"stage": self.stage, "cost": self.cost, "nrmse": self.nrmse, "nfev": self.nfev,
                     "failures": self.failures, "seconds": self.seconds, "notes": self.notes,
-                    "warnings": self.warnings, "validation": self.validation},
+                    "warnings": self.warnings, "uncertainty": self.uncertainty, "validation": self.validation},
         }
 
     def write_json(self, path: str | Path) -> Path:

@@ -29,9 +29,12 @@ CART_TRUTH = {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}
 
 
 def result_without_time(path):
-    """A result file's content without fit.seconds, the one field that differs between runs."""
+    """A result file's content without its timings (fit.seconds and fit.uncertainty.seconds),
+    the only fields that differ between runs."""
     import json
 
     document = json.loads(path.read_text())
     document["fit"].pop("seconds")
+    if isinstance(document["fit"].get("uncertainty"), dict):
+        document["fit"]["uncertainty"].pop("seconds", None)
     return document

@@ -1,7 +1,7 @@
 """The same inputs and seed give the same result file, bit for bit (issue 7), whatever the
 number of worker processes: differential evolution updates its population once per
 generation ("deferred"), so the order in which workers finish does not matter. Only the
-wall-clock time in fit.seconds differs between runs."""
+wall-clock times (fit.seconds, fit.uncertainty.seconds) differ between runs."""
 
 from __future__ import annotations
 

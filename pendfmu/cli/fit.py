@@ -36,6 +36,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--checkpoint", help="checkpoint file written on Ctrl-C (default: OUT with .checkpoint)")
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted fit from its checkpoint (same command otherwise)")
+    parser.add_argument("--uncertainty", choices=("bootstrap", "jacobian"), default="bootstrap",
+                        help="intervals: parametric bootstrap through the sensor model (calibrated, default) or "
+                             "the Jacobian at the optimum (fast, far too narrow on quantized recordings)")
+    parser.add_argument("--replicates", type=int, default=24, metavar="N",
+                        help="bootstrap replicates (default 24; each is one local refit, run on the workers)")
     parser.add_argument("--strict", action="store_true",
                         help="exit with code 3 on any warning (suspicious data: before fitting; suspicious "
                              "result: after writing it)")
@@ -93,8 +98,10 @@ def run(args: argparse.Namespace) -> int:
         printed.append(message)
         print(f"warning: {message}", file=sys.stderr, flush=True)
 
+    if args.replicates < 8:
+        raise UsageError(f"--replicates {args.replicates}: at least 8 (the interval's quantile needs them)")
     common = dict(seed=args.seed, cost=args.cost, global_search=options, checkpoint=checkpoint, warn=warn,
-                  strict=args.strict)
+                  strict=args.strict, uncertainty=args.uncertainty, replicates=args.replicates)
     try:
         if args.stage == "all":
             result = fit_all(args.recordings[0], params, **common)
@@ -116,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
     result.write_json(args.out)
     if path.exists():
         path.unlink()  # the fit is complete: its checkpoint has served
-    print(f"wrote {args.out}: {_summary(result)}")
+    print(f"{args.out}: {_summary(result)}")
     for line in _details(result):
         print(line)
     if args.report:
@@ -130,15 +137,17 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _summary(result) -> str:
+    from pendfmu.report.content import interval_text
+
     parts = []
     for label, estimate in result.estimates.items():
-        if estimate.stderr is not None:
-            parts.append(f"{label} = {estimate.value:.6g} ± {estimate.stderr:.2g}")
-        elif estimate.ci95 is not None:
-            parts.append(f"{label} in [{estimate.ci95[0]:.4g}, {estimate.ci95[1]:.4g}]")
+        if estimate.ci95 is None:
+            parts.append(f"{label} = {estimate.value:.6g} (no interval)")
+        elif estimate.method == "bounded":
+            parts.append(f"{label} in {interval_text(*estimate.ci95)} (bounded only)")
         else:
-            parts.append(f"{label} = {estimate.value:.6g} (undetermined)")
-    return "; ".join(parts)
+            parts.append(f"{label} = {estimate.value:.6g}, 95 % {interval_text(*estimate.ci95)} ({estimate.method})")
+    return "wrote the result; estimates:\n  " + "\n  ".join(parts)
 
 
 def _details(result) -> list[str]:

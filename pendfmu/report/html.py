@@ -127,10 +127,11 @@ def _estimates(estimates: dict[str, Estimate]) -> str:
             + _cell(number(relative_stderr(estimate), 3), "num")
             + _cell(interval(estimate.ci95) + (f' <span class="muted">({what})</span>' if estimate.ci95 else ""),
                     "num")
-            + _cell(flags, "flags") + "</tr>")
-    return _table(("name", "value", "unit", "stderr", "stderr %", "interval", "flags"), rows,
-                  "stderr from the Jacobian at the optimum; the interval of a positive quantity is taken on "
-                  "the log scale")
+            + _cell(_text(estimate.method)) + _cell(flags, "flags") + "</tr>")
+    return _table(("name", "value", "unit", "stderr", "stderr %", "interval", "method", "flags"), rows,
+                  "method: bootstrap = spread of refits of synthetic recordings read through each sensor "
+                  "(calibrated); jacobian = s²(JᵀJ)⁻¹ at the optimum (fast, too narrow on quantized data); "
+                  "bounded = the set the recordings allow. A positive quantity's interval is taken on the log scale")
 
 
 def _correlation(correlation: dict[str, dict[str, float | None]]) -> str:

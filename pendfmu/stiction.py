@@ -1,0 +1,90 @@
+"""What stick-slip recordings say about stiction: a value, or only a set of values.
+
+Stiction (F_Sc of the cart, T_Sp of the pendulum) acts at two kinds of instant only:
+
+- a stuck joint whose active force grows through the threshold breaks away there, so the
+  recording pins the threshold to the force at that instant (a *crossing*);
+- a sliding joint that comes to rest sticks if the force it must then hold is within the
+  threshold and reverses otherwise; a joint released from rest slides at once if the force
+  already exceeds it. Each such instant bounds the threshold from one side.
+
+Recordings without a crossing therefore only bound stiction: every threshold between the
+largest force a stuck joint held and the smallest force at which it reversed or slid
+from rest gives the same trajectories, and the least-squares cost is flat in between. A
+bootstrap cannot see that (its refits do not move along a flat direction), and a global
+search stops anywhere in it, so that the value would depend on the seed. Such a
+parameter is reported as the set instead, the same for every seed, widened by the sets
+of the bootstrap's replicates (the set's ends move with the other estimates), with the
+least stiction the recordings demand as its value.
+
+Stuck is exact in the FMUs (speed and acceleration are exactly zero), so the modes can be
+read from their outputs at the samples.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Joint:
+    stage: str
+    stiction: str
+    coulomb: str
+    force: str  # the active force (torque) output
+    speed: str
+    acceleration: str
+    unit: str
+
+
+JOINTS = {"cart": Joint("cart", "F_Sc", "F_Kc", "F_A", "v", "a", "N"),
+          "pendulum": Joint("pendulum", "T_Sp", "T_Kp", "T_A", "w", "alpha", "N.m")}
+HELD_BEFORE_CROSSING = 2  # samples a joint must have been stuck for its breakaway to pin the threshold
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """What one set of simulations shows about a joint's threshold."""
+
+    crossings: int  # breakaways of a joint that had been stuck: each pins the threshold
+    low: float  # the largest force held while stuck: the threshold is at least this
+    high: float  # the smallest force at a reversal or a slide from rest: the threshold is below
+
+
+def evidence(simulations: Iterable[Mapping[str, np.ndarray]], joint: Joint) -> Evidence:
+    crossings, low, high = 0, 0.0, math.inf
+    for simulated in simulations:
+        force = np.abs(simulated[joint.force])
+        speed = simulated[joint.speed]
+        moving = (speed != 0) | (simulated[joint.acceleration] != 0)
+        stuck = ~moving
+        if stuck.any():
+            low = max(low, float(force[stuck].max()))
+        reversal = moving[:-1] & moving[1:] & (np.sign(speed[:-1]) * np.sign(speed[1:]) < 0)
+        if reversal.any():
+            high = min(high, float(force[1:][reversal].min()))
+        if moving[0] and speed[0] == 0:  # released from rest and sliding at once
+            high = min(high, float(force[0]))
+        starts = np.flatnonzero(moving[1:] & stuck[:-1]) + 1
+        crossings += int(sum(k >= HELD_BEFORE_CROSSING and stuck[k - HELD_BEFORE_CROSSING:k].all() for k in starts))
+    return Evidence(crossings, low, high)
+
+
+def bounded_set(found: Evidence, replicates: Iterable[Evidence], coulomb: float) -> tuple[float, float] | None:
+    """The set of thresholds the recordings allow (None when they pin it, or allow
+    nothing consistent): the estimate's set widened by the replicates' sets. Below the
+    Coulomb friction stiction has no effect (the threshold is max(F_S, F_K)), so the set
+    starts there at the least."""
+    if found.crossings:
+        return None
+    replicates = list(replicates)
+    lows = [found.low] + [r.low for r in replicates if not r.crossings]
+    highs = [found.high] + [r.high for r in replicates if not r.crossings]
+    low, high = max(min(lows), coulomb), max(highs)
+    if not high > low:
+        return None
+    return low, high

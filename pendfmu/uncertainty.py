@@ -1,0 +1,92 @@
+"""The uncertainty of a fit's estimates, by the method the user chose.
+
+- "bootstrap" (the default): calibrated intervals from refitting synthetic replicates of
+  the recordings (bootstrap.py). Costs `replicates` local refits, run in parallel.
+- "jacobian": the classic s^2 (J^T J)^-1 interval at the optimum. Instant, but it assumes
+  independent residuals; on quantized recordings its intervals are tens of times too narrow.
+  Kept as the fast option, and labelled as such in the result.
+
+Whatever happens here, the fit's result is still written: a failure of the statistics
+gives estimates without intervals and says why.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pendfmu.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
+from pendfmu.result import Estimate, estimate_uncertainty, unknown_uncertainty
+from pendfmu.residuals import Residuals
+
+METHODS = ("bootstrap", "jacobian")
+MIN_REPLICATES = 8  # fewer successful refits than this: no bootstrap interval
+
+
+@dataclass
+class Assessment:
+    estimates: dict[str, Estimate]
+    correlation: dict[str, dict[str, float | None]]
+    notes: list[str] = field(default_factory=list)
+    summary: dict = field(default_factory=dict)
+    replicates: list[dict[str, float]] = field(default_factory=list)  # per replicate, the stage's rig values
+    values: np.ndarray | None = None  # replicates x free parameters (physical; NaN: a failed refit)
+
+
+def assess_uncertainty(method: str, residuals: Residuals, outcome, replicates: int = REPLICATES,
+                       upstream: Sequence[Mapping[str, float]] | None = None, options=None) -> Assessment:
+    """Intervals for the optimum in `outcome` (optimizer.Outcome) by `method`."""
+    if method not in METHODS:
+        raise ValueError(f"uncertainty must be one of {', '.join(METHODS)}, not {method!r}")
+    start = time.perf_counter()
+    free = residuals.free
+    if method == "bootstrap" and len(free):
+        try:
+            assessment = _bootstrap(residuals, outcome, replicates, upstream, options)
+        except KeyboardInterrupt:
+            assessment = _jacobian(residuals, outcome)
+            assessment.notes.append("the bootstrap was interrupted: the intervals are the fast Jacobian ones, "
+                                    "which are too narrow on quantized recordings")
+    else:
+        assessment = _jacobian(residuals, outcome)
+    assessment.summary["seconds"] = time.perf_counter() - start
+    return assessment
+
+
+def _jacobian(residuals: Residuals, outcome) -> Assessment:
+    try:
+        estimates, correlation = estimate_uncertainty(residuals.free, outcome.u, outcome.jacobian, outcome.residual)
+        return Assessment(estimates, correlation, summary={"method": "jacobian"})
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as error:
+        reason = f"{type(error).__name__}: {error}"
+        return Assessment(unknown_uncertainty(residuals.free, outcome.u, reason), {},
+                          [f"the uncertainty could not be computed ({reason}); the estimates carry no interval"],
+                          {"method": "none"})
+
+
+def _bootstrap(residuals: Residuals, outcome, count: int, upstream, options) -> Assessment:
+    above = list(upstream) if upstream is not None and len(upstream) == count else None
+    workers = getattr(options, "workers", 0)
+    scheduler = getattr(options, "scheduler", None)
+    found = bootstrap(residuals, outcome.u, count, above, workers, scheduler)
+    good = count - found.failures
+    summary = {"method": "bootstrap", "replicates": count, "failed": found.failures, "errors_from": found.source,
+               "upstream": above is not None}
+    if good < MIN_REPLICATES:
+        fallback = _jacobian(residuals, outcome)
+        fallback.notes.append(f"only {good} of {count} bootstrap refits succeeded: the intervals are the fast "
+                              f"Jacobian ones, too narrow on quantized recordings")
+        fallback.summary.update(summary, method="jacobian (bootstrap failed)")
+        return fallback
+    estimates, correlation = bootstrap_estimates(residuals.free, outcome.u, found)
+    notes = []
+    if found.failures:
+        notes.append(f"{found.failures} of {count} bootstrap refits failed and were left out")
+    modelled = [name for name, source in found.source.items() if source == "residuals"]
+    if modelled:
+        notes.append(f"the residuals of {', '.join(modelled)} stand above the sensor noise: their bootstrap errors "
+                     f"are the fit's own residuals, circularly shifted, not the sensor model")
+    return Assessment(estimates, correlation, notes, summary, found.fitted, found.values)
