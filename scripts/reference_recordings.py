@@ -79,7 +79,16 @@ def reference_parameters(values: Mapping[str, float]) -> dict[str, float]:
 
 def reference_signals(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
     """The true signals of an experiment at its sample times, like
-    ``virtual_rig.simulate_truth`` but by the reference simulator (stage experiments only)."""
+    ``virtual_rig.simulate_truth`` but by the reference simulator (stage experiments only).
+
+    scipy's DOP853 error estimate divides 0 by 0 when its 5th-order error is exactly zero
+    and the 3rd-order one a subnormal number (a stuck cart: only the current moves); the
+    NaN rejects the step and a smaller one is taken, so only the warning is silenced."""
+    with np.errstate(invalid="ignore"):
+        return _reference_signals(experiment, truth)
+
+
+def _reference_signals(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
     values = reference_parameters({**truth, **experiment.truth_overrides, **experiment.sidecar_parameters})
     times = sample_times(experiment)
     command = np.array([experiment.drive(t) for t in times])
@@ -95,7 +104,9 @@ def reference_signals(experiment: Experiment, truth: Mapping[str, float]) -> dic
     if experiment.kind == "pendulum":
         frame = reference_rig.simulate_pendulum(values, experiment.drive, times, phi0=values["phi0"],
                                                 w0=values["w0"])
-        return {"time": times, **{name: frame[name].to_numpy() for name in ("a", "phi", "w")}}
+        # the commanded acceleration as the virtual rig records it (the reference evaluates
+        # the drive just left of the last sample there)
+        return {"time": times, "a": command, **{name: frame[name].to_numpy() for name in ("phi", "w")}}
     raise ValueError(f"{experiment.name}: kind {experiment.kind!r} is not a stage experiment")
 
 
