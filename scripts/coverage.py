@@ -1,0 +1,202 @@
+"""Coverage benchmark of the fit's 95 % intervals (issue 12): do they hold the truth?
+
+For each of N truths drawn around MODEL.md's reference rig, the six stage recordings
+(current steps, three cart runs without pendulum, pendulum decay and rocking) are
+simulated by the independent reference simulator in tests/ (scripts/reference_recordings.py,
+not the FMUs the fit uses), read through the virtual rig's sensors with their own noise
+seed, and fitted by ``pendfmu.fit_all`` from the reference values. Per fitted parameter
+the estimate, the truth, its ``ci95`` and flags go to a JSON-lines file as each truth
+completes; the summary is printed at the end (or from the file with ``--tally``).
+
+Truths (``draw_truth``): every fitted parameter is the reference value times a factor
+drawn log-uniformly in [0.6, 1.6] -- log-uniform because the parameters are scales, the
+fit searches them on a log scale and its errors are relative; a uniform factor would
+put 60 % of the draws above the reference. The ripple (a_h, f_h, phase_h) is drawn the
+same way around ``virtual_rig.RIPPLE``. Stiction is drawn as Coulomb friction times a
+ratio, log-uniform within what keeps the stiction itself within x0.6-1.6 of its
+reference and the ratio at least 1.2: at a ratio near 1 stiction has hardly any effect
+(the breakaway is at max(F_S, F_K)), so it would be a different, ill-posed, question.
+(So the stiction's own factor is not log-uniform: its median is 1.2 for the cart, 1.06
+for the pendulum.) The free decay's release angle is 0.6 rad times a factor in [0.6, 1.6],
+to either side. Cached recordings, per truth index and seed:
+DIR/recordings/{GENERATOR}-seed{S}/truth{K}/.
+
+``--simulator fmu`` makes the same truths' recordings with the virtual rig's FMUs and
+the same noise instead: the control run. Where it covers and the reference run does
+not, the gap is a disagreement between the FMUs and the physics, not the interval method.
+
+    python scripts/coverage.py [--truths 30] [--seed 0] [--out out/coverage] [--method NAME]
+                               [--stages current,cart,pendulum] [--start K]
+    python scripts/coverage.py --tally out/coverage/results-....jsonl
+
+A truth takes about 15 s on a shared 2-core machine: 7 s to generate its recordings
+(cached for later runs) and 5-12 s for fit_all.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import json
+import math
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pendfmu.identification import fit_all
+from pendfmu.virtual_rig import RIPPLE, reference_truth, write_experiments
+
+from coverage_tally import STAGE_PARAMETERS, covers, print_summary, read_results
+from reference_recordings import stage_experiments, write_reference_experiments
+
+STAGE_OF_RECORDING = {"current-steps": "current", "cart-startup-2A": "cart", "cart-startup-3A": "cart",
+                      "cart-ramp": "cart", "pendulum-decay": "pendulum", "pendulum-stiction": "pendulum"}
+FACTOR = (0.6, 1.6)
+STICTION = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> its Coulomb friction
+MIN_STICTION_RATIO = 1.2
+RELEASE_ANGLE = 0.6  # rad from hanging, the virtual rig's
+GENERATOR = "v1"  # part of the cache path: bump when the recordings change
+
+
+def log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
+    return float(math.exp(rng.uniform(math.log(low), math.log(high))))
+
+
+def draw_truth(seed: int, index: int) -> tuple[dict[str, float], float]:
+    """Truth `index` of the series `seed`: the fitted parameters and the release angle."""
+    rng = np.random.default_rng([seed, index])
+    reference = {**reference_truth(), **RIPPLE}
+    truth = {}
+    for name in (n for names in STAGE_PARAMETERS.values() for n in names):
+        if name in STICTION:
+            coulomb = STICTION[name]
+            ratio_ref = reference[name] / reference[coulomb]
+            scale = reference[coulomb] / truth[coulomb]  # the drawn Coulomb's factor, inverted
+            low = max(MIN_STICTION_RATIO, FACTOR[0] * ratio_ref * scale)
+            high = FACTOR[1] * ratio_ref * scale
+            truth[name] = truth[coulomb] * log_uniform(rng, low, high)
+        else:
+            truth[name] = reference[name] * log_uniform(rng, *FACTOR)
+    angle = RELEASE_ANGLE * log_uniform(rng, *FACTOR) * float(rng.choice([-1.0, 1.0]))
+    return truth, angle
+
+
+def noise_seed(seed: int, index: int) -> int:
+    return 100_000 * seed + index
+
+
+def recordings(out: Path, seed: int, index: int, simulator: str = "reference") -> tuple[Path, float]:
+    """The folder of truth `index`'s recordings, generated once (seconds spent, 0 if cached).
+    Written under a temporary name and renamed, so an interrupted run leaves no half folder."""
+    kind = GENERATOR if simulator == "reference" else simulator
+    folder = out / "recordings" / f"{kind}-seed{seed}" / f"truth{index:03d}"
+    if folder.is_dir():
+        return folder, 0.0
+    start = time.perf_counter()
+    truth, angle = draw_truth(seed, index)
+    partial = folder.with_name(f".{folder.name}.part")
+    shutil.rmtree(partial, ignore_errors=True)
+    if simulator == "reference":
+        write_reference_experiments(partial, truth, noise_seed(seed, index), stage_experiments(angle),
+                                    truth_index=index, truth_seed=seed, release_angle=angle)
+    else:
+        write_experiments(partial, truth, noise_seed(seed, index), stage_experiments(angle))
+    partial.rename(folder)
+    return folder, time.perf_counter() - start
+
+
+def stage_view(folder: Path, stages: tuple[str, ...], into: Path) -> Path:
+    """A folder with only the recordings of `stages` (symbolic links), for fit_all."""
+    for csv in folder.glob("*.csv"):
+        if STAGE_OF_RECORDING.get(csv.stem) in stages:
+            for path in (csv, csv.with_suffix(".json")):
+                (into / path.name).symlink_to(path.resolve())
+    return into
+
+
+def fit_truth(folder: Path, seed: int, index: int, stages: tuple[str, ...], method: str | None) -> dict:
+    """Fit one truth's recordings; the JSON-lines record of every fitted quantity."""
+    truth, angle = draw_truth(seed, index)
+    # Stages not fitted are known exactly; the fitted ones start from the reference values.
+    known = {n: truth[n] for stage, names in STAGE_PARAMETERS.items() if stage not in stages for n in names}
+    extra = {"uncertainty": method} if method else {}
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        result = fit_all(stage_view(folder, stages, Path(tmp)), params=known or None, seed=index,
+                         progress=False, **extra)
+    seconds = time.perf_counter() - start
+    truths = {**truth, "phi0[pendulum-decay]": math.pi + angle}
+    estimates = {label: {"value": e.value, "truth": truths.get(label), "stderr": e.stderr,
+                         "ci95": list(e.ci95) if e.ci95 else None, "flags": e.flags}
+                 for label, e in result.estimates.items()}
+    return {"seed": seed, "index": index, "noise_seed": noise_seed(seed, index), "fit_seed": index,
+            "method": method or "default", "stages": list(stages), "seconds": seconds,
+            "nfev": result.nfev, "nrmse": result.nrmse, "notes": result.notes, "estimates": estimates}
+
+
+def check_method(method: str | None) -> None:
+    if method is None:
+        return
+    parameters = inspect.signature(fit_all).parameters
+    if "uncertainty" not in parameters and not any(p.kind is p.VAR_KEYWORD for p in parameters.values()):
+        sys.exit(f"--method {method}: this pendfmu's fit_all() takes no 'uncertainty' keyword yet (the interval "
+                 f"method is being rebuilt); run without --method to measure today's Jacobian intervals")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--truths", type=int, default=30, help="number of truths (default 30)")
+    parser.add_argument("--seed", type=int, default=0, help="series of truths and noise seeds (default 0)")
+    parser.add_argument("--start", type=int, default=0, help="first truth index, to resume or extend (default 0)")
+    parser.add_argument("--out", type=Path, default=Path("out/coverage"), help="recordings cache and results")
+    parser.add_argument("--method", help="passed to fit_all as uncertainty=METHOD (default: fit_all's own)")
+    parser.add_argument("--stages", default="current,cart,pendulum",
+                        help="comma-separated subset of current,cart,pendulum; the others are fixed at the truth")
+    parser.add_argument("--simulator", choices=("reference", "fmu"), default="reference",
+                        help="who makes the recordings: tests/reference_rig.py (default) or, as a control, "
+                             "the FMUs of the virtual rig")
+    parser.add_argument("--tally", type=Path, metavar="FILE", help="print the summary of a results file; no fitting")
+    args = parser.parse_args()
+    if args.tally:
+        print_summary(read_results(args.tally))
+        return
+    stages = tuple(s for s in ("current", "cart", "pendulum") if s in args.stages.split(","))
+    unknown = set(args.stages.split(",")) - set(stages)
+    if unknown or not stages:
+        parser.error(f"--stages: unknown {', '.join(sorted(unknown)) or 'empty'}; choose from current,cart,pendulum")
+    check_method(args.method)
+    args.out.mkdir(parents=True, exist_ok=True)
+    name = f"seed{args.seed}-{args.method or 'default'}-{'+'.join(stages)}" + ("-fmu" if args.simulator == "fmu" else "")
+    results = args.out / f"results-{name}.jsonl"
+    done = {r["index"] for r in read_results(results)} if results.exists() else set()
+    print(f"results: {results}", flush=True)
+    for index in range(args.start, args.start + args.truths):
+        if index in done:
+            print(f"truth {index}: already in the results file, skipped", flush=True)
+            continue
+        folder, generated = recordings(args.out, args.seed, index, args.simulator)
+        try:
+            record = fit_truth(folder, args.seed, index, stages, args.method)
+            record["simulator"] = args.simulator
+        except Exception as error:  # one truth's failure is a finding, not the end of the run
+            record = {"seed": args.seed, "index": index, "method": args.method or "default",
+                      "stages": list(stages), "simulator": args.simulator,
+                      "error": f"{type(error).__name__}: {error}"}
+        record["generate_seconds"] = generated
+        with results.open("a") as handle:  # a line per truth: an interrupted run keeps its work
+            handle.write(json.dumps(record) + "\n")
+        if "error" in record:
+            print(f"truth {index}: the fit failed: {record['error']}", flush=True)
+            continue
+        misses = [k for k, e in record["estimates"].items() if e["truth"] is not None and not covers(e, k)]
+        print(f"truth {index}: generated in {generated:.1f} s, fitted in {record['seconds']:.1f} s; "
+              f"outside the interval: {', '.join(misses) or 'none'}", flush=True)
+    print_summary(read_results(results))
+
+
+if __name__ == "__main__":
+    main()
