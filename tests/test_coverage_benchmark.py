@@ -69,16 +69,31 @@ def test_current_loop_and_pendulum_agree_far_below_a_sensor_step(simulated):
                 assert gap < 1e-5, f"{experiment.name}: max |d{signal}| = {gap:.3g} steps"
 
 
-def test_cart_differs_only_by_the_masters_interpolation_of_the_current(simulated):
-    """The co-simulation master hands the cart the ripple-free current linearly
-    interpolated between 0.2 ms communication points; the reference integrates the loop
-    and the cart together. Below the concave rise after a step the interpolated current
-    falls short, the cart loses speed and keeps a position deficit: 0.86 encoder steps
-    at most at this truth (0.19-0.86 over the truths 0-5, 0.43 at the reference rig).
-    Driven by that same interpolated current, the reference cart is the FMU's to 1e-8
-    steps, so the whole disagreement is the interpolation (the cart's internal step and
-    event location are exact). The bounds: 1e-5 steps for the interpolated drive, one
-    encoder step for the whole chain (what the benchmark's recordings carry)."""
+def test_cart_agrees_once_the_current_transients_are_resolved(simulated):
+    """The cart is driven by the ripple-free current, which after a step relaxes with T_i
+    (0.3 ms), barely longer than a 0.2 ms sample. Passed linearly interpolated between
+    samples it fell short under the concave rise: the cart lost speed and kept a position
+    deficit of 0.19-0.86 encoder steps against the reference (0.5 on the staircase ramp).
+    That was the tool's bias, not the data's. The virtual rig's truth now co-simulates at
+    20 us and the fit's stage simulator steps every unsettled sample 8 times: measured
+    0.003-0.009 steps at the truths 0-2. The bound, 0.03 steps, is 3x that and 30 below
+    the old gap; the linearly interpolated drive (the old way) is still shown to be the
+    0.1-1 step cause it was."""
+    from pendfmu.experiment import make_experiment
+    from pendfmu.recording import Recording
+    from pendfmu.simulator.stage import StageSimulator
+
+    for experiment in (e for e in short_experiments() if e.kind == "cart"):
+        fmu, reference = simulated[experiment.name]
+        assert np.max(np.abs(fmu["x"] - reference["x"])) / step("x") < 0.03, experiment.name
+        recording = Recording(None, reference["time"], {"I_c": reference["I_c"], "x": reference["x"]},
+                              parameters=dict(experiment.sidecar_parameters))
+        stage = StageSimulator(make_experiment(recording, "cart", TRUTH))
+        try:
+            fitted_model = stage.simulate({**TRUTH, **experiment.sidecar_parameters})["x"]
+        finally:
+            stage.close()
+        assert np.max(np.abs(fitted_model - reference["x"])) / step("x") < 0.03, experiment.name
     experiment = next(e for e in short_experiments() if e.name == "cart-startup-3A")
     fmu, reference = simulated[experiment.name]
     times = reference["time"]
@@ -89,9 +104,8 @@ def test_cart_differs_only_by_the_masters_interpolation_of_the_current(simulated
         interpolated = reference_rig.simulate_cart({**values, "J_p": 0.0},
                                                    lambda t: float(np.interp(t, times, ripple_free)), times,
                                                    breakpoints=tuple(times[1:-1]))
-    assert np.max(np.abs(fmu["x"] - interpolated["x"].to_numpy())) / step("x") < 1e-5
-    whole = np.max(np.abs(fmu["x"] - reference["x"])) / step("x")
-    assert 0.1 < whole < 1.0
+    gap = np.max(np.abs(interpolated["x"].to_numpy() - reference["x"])) / step("x")
+    assert 0.1 < gap < 1.0
 
 
 @pytest.fixture(scope="module")
@@ -112,7 +126,7 @@ def test_sidecars_and_sensor_readings_are_the_virtual_rigs(folders):
         a, b = (np.genfromtxt(f / f"{name}.csv", delimiter=",", names=True) for f in (fmu, reference))
         assert a.dtype.names == b.dtype.names
         for column in a.dtype.names:
-            if column == "x":  # see the cart test: off by up to one encoder step
+            if column == "x":  # 0.01 steps apart: a reading near a rounding edge may differ by one step
                 assert np.max(np.abs(a[column] - b[column])) <= step("x") * (1 + 1e-9)
             else:  # the same noise draws, and true signals 1e-7 steps apart: the same readings
                 assert np.array_equal(a[column], b[column]), f"{name}: {column}"
