@@ -100,11 +100,9 @@ def identify(out: Path) -> Path:
     result.write_json(out / "identified.json")
     result.write_report(out / "report")
     result.export(out / "exported")
-    with open(out / "identified-vs-truth.csv", "w") as table:
-        table.write("parameter,truth,identified,relative_error\n")
-        for name, truth in DEMO_TRUTH.items():
-            value = result.parameters[name]
-            table.write(f"{name},{truth!r},{value!r},{value / truth - 1:.3e}\n")
+    held = write_truth_table(result, out / "identified-vs-truth.csv")
+    print(f"demo: {sum(held.values())} of {len(held)} intervals hold the demo's truth"
+          + ("" if all(held.values()) else f"; missed: {', '.join(n for n, ok in held.items() if not ok)}"))
     for name in ("coupled-step", "bangbang-2"):
         recording = read_recording(rig_dir / f"{name}.csv")
         predicted = simulate_recording(result.parameters, recording)
@@ -123,6 +121,26 @@ def identify(out: Path) -> Path:
         fig.savefig(out / f"{name}-predicted.png", dpi=120)
         plt.close(fig)
     return out / "report" / "index.html"
+
+
+def write_truth_table(result, path: Path) -> dict[str, bool]:
+    """The identified values against the demo's truth, with each 95 % interval (or the
+    set a parameter is only bounded to) and whether it holds the truth."""
+    from pendfmu.virtual_rig import reference_truth
+
+    truth = {**reference_truth(), **DEMO_TRUTH}
+    held = {}
+    with open(path, "w") as table:
+        table.write("parameter,truth,identified,relative_error,low,high,method,holds_truth\n")
+        for name, estimate in result.estimates.items():
+            base = name.split("[")[0]
+            if base not in truth or "[" in name:
+                continue
+            low, high = estimate.ci95 if estimate.ci95 else (math.nan, math.nan)
+            held[name] = bool(low <= truth[base] <= high)
+            table.write(f"{name},{truth[base]!r},{estimate.value!r},{estimate.value / truth[base] - 1:.3e},"
+                        f"{low!r},{high!r},{estimate.method},{held[name]}\n")
+    return held
 
 
 def run_demo(out: str | Path = "out/demo") -> Path:

@@ -163,13 +163,14 @@ def current_step_recording(trace: ScopeTrace, step: StepEstimate) -> Recording:
         initial={"I": step.baseline})
 
 
-def fit_current_step(trace: ScopeTrace, step: StepEstimate) -> FitResult:
+def fit_current_step(trace: ScopeTrace, step: StepEstimate, uncertainty: str = "bootstrap") -> FitResult:
     """pendfmu's current stage for a given command: T_i free, the slope limit fixed so
     high that it never binds (an R-L circuit has none). The start is the reference rig's
     T_i (0.3 ms), not the published L/R; the global search is off because one time
     constant in a one-decade box is a convex-looking 1-D problem for the local search."""
     return fit("current", [current_step_recording(trace, step)], {"dIdt_max": NEVER_BINDING_SLOPE},
-               fix=["dIdt_max"], global_search=GlobalOptions(enabled=False), progress=False)
+               fix=["dIdt_max"], global_search=GlobalOptions(enabled=False), progress=False,
+               uncertainty=uncertainty)
 
 
 @dataclass
@@ -200,9 +201,9 @@ def fit_locked_rotor(trace: ScopeTrace) -> LockedRotorFit:
     def at(x) -> StepEstimate:
         return StepEstimate(first.baseline, first.level + x[1] * span, first.t0 + x[0] * dt, first.noise)
 
-    def cost(x) -> float:
+    def cost(x) -> float:  # only the cost: no intervals needed on the way
         count[0] += 1
-        return fit_current_step(trace, at(x)).cost
+        return fit_current_step(trace, at(x), uncertainty="jacobian").cost
 
     # Coordinates: t0 in samples, level in units of the step: both O(1) for the simplex.
     best = minimize(cost, [0.0, 0.0], method="Nelder-Mead",
@@ -380,11 +381,15 @@ def fit_decay(recordings: list[Recording], free: tuple[str, ...] = ()) -> FitRes
     would exclude everything below 2e-4 N m). The global search is off to bound the run
     time: from the rig defaults, from a start two decades lower (k_fwp 1e-5, T_Kp 1e-6)
     and after the default differential evolution the local search ends at the same
-    optimum (k_fwp and T_Kp equal to 4 digits), at 10 s instead of 38 s."""
+    optimum (k_fwp and T_Kp equal to 4 digits), at 10 s instead of 38 s.
+
+    The intervals are the fast Jacobian ones: these tests hold the fit to the energy
+    balance, not its intervals, and a bootstrap of 11 free parameters (phi0 per window)
+    over 8 windows costs minutes."""
     bounds = {"k_fwp": (1e-6, 1e-2), "T_Kp": (1e-7, 1e-2),
               "J_p": (0.9 * PUBLISHED_PENDULUM["J_p"], 1.1 * PUBLISHED_PENDULUM["J_p"])}
     return fit("pendulum", recordings, PUBLISHED_PENDULUM, free=list(free), bounds=bounds,
-               global_search=GlobalOptions(enabled=False), progress=False)
+               global_search=GlobalOptions(enabled=False), progress=False, uncertainty="jacobian")
 
 
 @dataclass(frozen=True)

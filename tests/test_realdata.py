@@ -211,9 +211,9 @@ def test_pendulum_fit_full_resolution(full_resolution, cycles):
     The split between k_fwp and T_Kp is not asserted: the rig's losses are not
     viscous + Coulomb, and the split moves with the amplitude weighting from
     (k 9e-5, T_K 4.8e-4) to (k 2.3e-4, T_K -3.1e-4) while the dissipation stays (see the
-    printout); T_Kp's 95 % interval from the fit assumes white residuals, and the
-    residuals here are model error (2-9 mrad rms per window, mostly phase drift, against
-    0.05 mrad of quantization noise).
+    printout); the printed intervals are the fast Jacobian ones (rd.fit_decay), which
+    assume white residuals, while the residuals here are model error (2-9 mrad rms per
+    window, mostly phase drift, against 0.05 mrad of quantization noise).
     """
     windows, result = full_resolution
     equivalent = report_fit("pendulum, encoder resolution 2 pi/40000", windows, result, cycles)
