@@ -131,11 +131,13 @@ def fit_truth(folder: Path, seed: int, index: int, stages: tuple[str, ...], meth
     seconds = time.perf_counter() - start
     truths = {**truth, "phi0[pendulum-decay]": math.pi + angle}
     estimates = {label: {"value": e.value, "truth": truths.get(label), "stderr": e.stderr,
-                         "ci95": list(e.ci95) if e.ci95 else None, "flags": e.flags}
+                         "ci95": list(e.ci95) if e.ci95 else None, "flags": e.flags, "method": e.method}
                  for label, e in result.estimates.items()}
+    intervals = sum(u.get("seconds", 0.0) for u in result.uncertainty.values())
     return {"seed": seed, "index": index, "noise_seed": noise_seed(seed, index), "fit_seed": index,
             "method": method or "default", "stages": list(stages), "seconds": seconds,
-            "nfev": result.nfev, "nrmse": result.nrmse, "notes": result.notes, "estimates": estimates}
+            "interval_seconds": intervals, "nfev": result.nfev, "nrmse": result.nrmse, "notes": result.notes,
+            "estimates": estimates}
 
 
 def check_method(method: str | None) -> None:

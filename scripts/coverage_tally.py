@@ -112,6 +112,11 @@ def print_summary(records: list[dict]) -> None:
     generated = [r["generate_seconds"] for r in fitted if r.get("generate_seconds")]
     print(f"fit time per truth: median {median(seconds):.1f} s, max {max(seconds):.1f} s, total {sum(seconds):.0f} s"
           + (f"; generating the recordings: median {median(generated):.1f} s per truth" if generated else ""))
+    timed = [r for r in fitted if "interval_seconds" in r]
+    if timed:
+        ratios = [r["interval_seconds"] / (r["seconds"] - r["interval_seconds"]) for r in timed]
+        print(f"intervals against the fit itself: median {median(ratios):.2f}x, max {max(ratios):.2f}x "
+              f"(interval seconds / the rest of fit_all's seconds)")
     _print_goal(table, len(fitted), covered / total)
 
 
