@@ -250,7 +250,7 @@ def add_flags(estimates: dict[str, Estimate], correlation: dict[str, dict[str, f
                                       f"determined")
 
 
-WARNING_FLAGS = ("at its lower bound", "at its upper bound", "unbounded", "no interval")
+WARNING_FLAGS = ("at its lower bound", "at its upper bound", "unbounded", "no interval", "not determined")
 
 
 def flag_warnings(estimates: dict[str, Estimate]) -> list[str]:

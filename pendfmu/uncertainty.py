@@ -20,7 +20,7 @@ import numpy as np
 
 from pendfmu.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
 from pendfmu.result import Estimate, estimate_uncertainty, unknown_uncertainty
-from pendfmu.residuals import Residuals
+from pendfmu.residuals import Residuals, physical
 
 METHODS = ("bootstrap", "jacobian")
 MIN_REPLICATES = 8  # fewer successful refits than this: no bootstrap interval
@@ -56,6 +56,34 @@ def assess_uncertainty(method: str, residuals: Residuals, outcome, replicates: i
     return assessment
 
 
+FLAT = 1e-8  # a Jacobian column this small against the largest: the recordings do not depend on it
+
+
+def undetermined(free, u: np.ndarray, jacobian: np.ndarray, estimates: dict[str, Estimate]) -> list[str]:
+    """Parameters the recordings do not depend on at all (a zero Jacobian column) get the
+    whole search box as their set: a refit never moves along a flat direction, so their
+    bootstrap spread is nil and would claim a precision the data do not have."""
+    if not jacobian.size:
+        return []
+    norms = np.linalg.norm(jacobian, axis=0)
+    notes = []
+    for k, p in enumerate(free):
+        if norms[k] > FLAT * max(float(norms.max()), 1e-300):
+            continue
+        ends = []
+        for end in (0.0, 1.0):
+            corner = np.array(u, dtype=float)
+            corner[k] = end
+            ends.append(float(physical(free, corner)[k]))
+        low, high = min(ends), max(ends)
+        estimate = estimates[p.label]
+        estimate.ci95, estimate.stderr, estimate.method = (low, high), None, "bounded"
+        estimate.flags = [f"not determined: the recordings do not depend on it here, so every value of the search "
+                          f"box [{low:.4g}, {high:.4g}] fits them as well; the value given is where the search stopped"]
+        notes.append(f"{p.label} is not determined by the recordings (zero sensitivity)")
+    return notes
+
+
 def _jacobian(residuals: Residuals, outcome) -> Assessment:
     try:
         estimates, correlation = estimate_uncertainty(residuals.free, outcome.u, outcome.jacobian, outcome.residual)
@@ -82,7 +110,7 @@ def _bootstrap(residuals: Residuals, outcome, count: int, upstream, options) -> 
         fallback.summary.update(summary, method="jacobian (bootstrap failed)")
         return fallback
     estimates, correlation = bootstrap_estimates(residuals.free, outcome.u, found)
-    notes = []
+    notes = undetermined(residuals.free, outcome.u, outcome.jacobian, estimates)
     if found.failures:
         notes.append(f"{found.failures} of {count} bootstrap refits failed and were left out")
     modelled = [name for name, source in found.source.items() if source == "residuals"]
