@@ -50,12 +50,16 @@ long pendfmu_run_single(const Unit *unit, size_t n_points, const double *times,
  *
  * The co-simulation master of pendfmu/simulator/master.py, step for step: components in
  * Gauss-Seidel groups; every connected input gets its value at t and its slope towards
- * t+h; a group whose members feed each other is iterated with FMU-state rollback until
- * its internal signals reproduce their guesses. The Python master stays the reference:
- * both do the same floating-point operations in the same order, so they agree to the bit.
+ * t+h; a group whose members feed each other is torn at one signal and solved with
+ * FMU-state rollback by the root finder of tear.h (or, without a single-signal tear,
+ * iterated until its internal signals reproduce their guesses). The Python master stays
+ * the reference: both do the same floating-point operations in the same order, so they
+ * agree to the bit.
  */
 #include <math.h>
 #include <stdlib.h>
+
+#include "tear.h"
 
 typedef struct {
     Unit f;
@@ -86,6 +90,8 @@ typedef struct {
     size_t n_groups;
     const int *group_start; /* n_groups + 1 offsets into group_members */
     const int *group_members;
+    const int *tear_unit; /* per group: the unit whose output tears its loop, or -1 (none) */
+    const fmi2ValueReference *tear_vr;
     double tolerance;
     int max_iterations;
     size_t n_points;
@@ -124,6 +130,12 @@ typedef struct {
     size_t *publish_start; /* n_groups + 1 offsets into published */
     unsigned char *coupled; /* per group: its members feed each other */
 } Plan;
+
+/* What a run keeps between steps for its tears (master.py: _previous_end, _tear_slope). */
+typedef struct {
+    double prediction, slope;
+    int has_prediction;
+} TearMemory;
 
 static int in_group(const System *s, size_t g, int unit) {
     for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
@@ -217,12 +229,19 @@ static int publish(System *s, const Plan *plan, size_t g, double *signal, double
     return 1;
 }
 
-static int solve_point(System *s, double *signal, double t) {
+static int is_internal(const System *s, size_t g, size_t l) {
+    return in_group(s, g, s->links[l].source) && in_group(s, g, s->links[l].target);
+}
+
+/* Make the signals of the links consistent at one instant: all links (group < 0, at the
+ * start) or those internal to a group (after a step accepted at a jump: master._settle). */
+static int solve_point(System *s, double *signal, double t, long group) {
     for (int it = 0; it < s->max_iterations; it++) {
         double change = 0.0;
         for (size_t l = 0; l < s->n_links; l++) {
             double value;
             const Link *link = &s->links[l];
+            if (group >= 0 && !is_internal(s, (size_t)group, l)) continue;
             if (!get_one(s, link->source, link->source_vr, &value)) return fail(s, 1, link->source, t);
             change = fmax(change, fabs(value - signal[l]) / (1.0 + fabs(value)));
             signal[l] = value;
@@ -236,12 +255,76 @@ static int solve_point(System *s, double *signal, double t) {
     return fail(s, 4, -1, t);
 }
 
-static int coupled_step(System *s, const Plan *plan, size_t g, size_t k, double *start, double *signal, double *guess,
-                        double *previous_end, unsigned char *has_previous, fmi2FMUstate *saved, double t, double h) {
+static int is_tear(const System *s, size_t g, size_t l) {
+    return s->links[l].source == s->tear_unit[g] && s->links[l].source_vr == s->tear_vr[g];
+}
+
+/* Step group g's members in order over [t, t+h] with the tear's end value guessed as x
+ * (master._torn_step); *out receives the tear's end value as computed. */
+static int torn_step(System *s, const Plan *plan, size_t g, size_t k, const double *start, const double *signal,
+                     double *ends, double x, double t, double h, double *out) {
+    for (size_t l = 0; l < s->n_links; l++) ends[l] = is_tear(s, g, l) ? x : signal[l];
+    for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
+        const int unit = s->group_members[m];
+        if (!set_inputs(s, plan, unit, k, start, ends, h)) return fail(s, 1, unit, t);
+        if (!do_step(s, unit, t, h)) return 0;
+        for (size_t l = 0; l < s->n_links; l++)
+            if (s->links[l].source == unit && !is_tear(s, g, l) && !get_one(s, unit, s->links[l].source_vr, &ends[l]))
+                return fail(s, 1, unit, t);
+    }
+    if (!get_one(s, s->tear_unit[g], s->tear_vr[g], out)) return fail(s, 1, s->tear_unit[g], t);
+    return 1;
+}
+
+static int save_states(System *s, size_t g, fmi2FMUstate *saved, int restore, double t) {
+    for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
+        const int unit = s->group_members[m];
+        SystemUnit *u = &s->units[unit];
+        const fmi2Status status = restore ? u->set_state(u->f.component, saved[unit])
+                                          : u->get_state(u->f.component, &saved[unit]);
+        if (status > fmi2Warning) return fail(s, 1, unit, t);
+    }
+    return 1;
+}
+
+/* A coupled step of a group with a tear (master._coupled_step): the root finder of tear.h
+ * on the tear's end value; at a jump the group's signals are then settled at t+h. */
+static int tear_step(System *s, const Plan *plan, size_t g, size_t k, double *start, double *signal, double *ends,
+                     TearMemory *memory, fmi2FMUstate *saved, double t, double h) {
+    size_t tear_link = 0;
+    while (!is_tear(s, g, tear_link)) tear_link++;
+    TearSolver solver;
+    tear_start(&solver, memory->has_prediction ? memory->prediction : start[tear_link], memory->slope, s->tolerance,
+               s->max_iterations);
+    if (!save_states(s, g, saved, 0, t)) return 0;
+    int outcome;
+    for (;;) {
+        double x = solver.guess, computed;
+        s->iterations++;
+        if (!torn_step(s, plan, g, k, start, signal, ends, x, t, h, &computed)) return 0;
+        outcome = tear_update(&solver, x, computed);
+        if (outcome != TEAR_CONTINUE) break;
+        if (!save_states(s, g, saved, 1, t)) return 0;
+    }
+    s->last_change = solver.change;
+    if (outcome == TEAR_EXHAUSTED) return fail(s, 2, -1, t);
+    if (outcome == TEAR_JUMP && !solve_point(s, signal, t + h, (long)g)) return 0;
+    if (!publish(s, plan, g, signal, t)) return 0;
+    const double end = signal[tear_link];
+    memory->prediction = outcome == TEAR_JUMP ? end : 2 * end - start[tear_link];
+    memory->slope = outcome == TEAR_JUMP ? 0.0 : solver.slope;
+    memory->has_prediction = 1;
+    return 1;
+}
+
+/* A coupled step of a group without a single-signal tear: fixed-point iteration on all its
+ * internal signals (master._iterated_step). */
+static int iterated_step(System *s, const Plan *plan, size_t g, size_t k, double *start, double *signal, double *guess,
+                         double *previous_end, unsigned char *has_previous, fmi2FMUstate *saved, double t, double h) {
     double ends[MAX_SIGNALS];
     int internal[MAX_SIGNALS];
     for (size_t l = 0; l < s->n_links; l++) {
-        internal[l] = in_group(s, g, s->links[l].source) && in_group(s, g, s->links[l].target);
+        internal[l] = is_internal(s, g, l);
         guess[l] = internal[l] ? (has_previous[l] ? previous_end[l] : start[l]) : signal[l];
     }
     for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
@@ -290,19 +373,21 @@ static int record_outputs(System *s, size_t row) {
 }
 
 static int run_system(System *s, const Plan *plan, double *signal, double *start, double *guess,
-                      double *previous_end, unsigned char *has_previous, fmi2FMUstate *saved) {
+                      double *previous_end, unsigned char *has_previous, TearMemory *memory, fmi2FMUstate *saved) {
     size_t row = 0;
     const double t0 = s->times[0];
     for (size_t unit = 0; unit < s->n_units; unit++)
         if (!set_inputs(s, plan, (int)unit, 0, signal, signal, 0.0)) return fail(s, 1, (int)unit, t0);
-    if (!solve_point(s, signal, t0)) return 0;
+    if (!solve_point(s, signal, t0, -1)) return 0;
     if (s->record[0] && !record_outputs(s, row++)) return 0;
     for (size_t k = 0; k + 1 < s->n_points; k++) {
         const double t = s->times[k], h = s->times[k + 1] - s->times[k];
         for (size_t l = 0; l < s->n_links; l++) start[l] = signal[l];
         for (size_t g = 0; g < s->n_groups; g++) {
-            if (plan->coupled[g]) {
-                if (!coupled_step(s, plan, g, k, start, signal, guess, previous_end, has_previous, saved, t, h))
+            if (plan->coupled[g] && s->tear_unit[g] >= 0) {
+                if (!tear_step(s, plan, g, k, start, signal, guess, &memory[g], saved, t, h)) return 0;
+            } else if (plan->coupled[g]) {
+                if (!iterated_step(s, plan, g, k, start, signal, guess, previous_end, has_previous, saved, t, h))
                     return 0;
             } else {
                 const int unit = s->group_members[s->group_start[g]];
@@ -324,16 +409,18 @@ int pendfmu_run_system(System *s) {
     double *signal = calloc(4 * s->n_links + 1, sizeof(double));
     unsigned char *has_previous = calloc(s->n_links + 1, 1);
     fmi2FMUstate *saved = calloc(s->n_units, sizeof(fmi2FMUstate));
+    TearMemory *memory = calloc(s->n_groups + 1, sizeof(TearMemory));
     Plan plan = {calloc(s->n_units + 1, sizeof(Ports)), calloc(s->n_groups * s->n_links + 1, sizeof(size_t)),
                  calloc(s->n_groups + 1, sizeof(size_t)), calloc(s->n_groups + 1, 1)};
     int ok = 0;
-    if (!(signal && has_previous && saved && plan.ports && plan.published && plan.publish_start && plan.coupled))
+    if (!(signal && has_previous && saved && memory && plan.ports && plan.published && plan.publish_start &&
+          plan.coupled))
         fail(s, 3, -1, s->times[0]);
     else if (!make_plan(s, &plan))
         fail(s, 5, -1, s->times[0]);
     else
         ok = run_system(s, &plan, signal, signal + s->n_links, signal + 2 * s->n_links, signal + 3 * s->n_links,
-                        has_previous, saved);
+                        has_previous, memory, saved);
     for (size_t unit = 0; saved && unit < s->n_units; unit++)
         if (saved[unit]) s->units[unit].free_state(s->units[unit].f.component, &saved[unit]);
     free(plan.ports);
@@ -343,5 +430,6 @@ int pendfmu_run_system(System *s) {
     free(signal);
     free(has_previous);
     free(saved);
+    free(memory);
     return ok;
 }

@@ -7,11 +7,15 @@ value at t and the slope to t+h through fmi2SetRealInputDerivatives, i.e. linear
 interpolation, second-order accurate, instead of a value held (and so delayed by h/2).
 
 Coupled groups (components that feed each other, e.g. cart and pendulum with a
-back-drivable screw) are stepped together and iterated: guess the group's internal
-signals at t+h, step every member with inputs interpolated towards the guess, read the
-outputs at t+h, roll the members back with fmi2SetFMUstate and step again until the
-outputs reproduce the guess. A group that does not converge is an error naming the loop
-and the time, never a silent delay.
+back-drivable screw) are stepped together and solved: the loop is torn at one signal
+(graph.tear_of; the cart's acceleration for the rig), its end value at t+h is guessed, the
+members step in turn with inputs interpolated towards the guess and towards the outputs
+of the members stepped before them, and the torn signal's end value is compared with the
+guess; the members are rolled back with fmi2SetFMUstate and the guess improved by a
+safeguarded root finder that also handles the jumps stick-slip events cause
+(tear.py). A group without a single-signal tear is iterated on all its internal signals
+(fixed point). A group that does not converge is an error naming the loop and the time,
+never a silent delay.
 """
 
 from __future__ import annotations
@@ -25,7 +29,8 @@ import pandas as pd
 from fmpy.fmi1 import FMICallException
 
 from pendfmu.simulator.component import ComponentFMU, FMUError, unpacked_fmu
-from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
+from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order, tear_of
+from pendfmu.simulator.tear import CONTINUE, EXHAUSTED, JUMP, TearSolver
 
 
 class CouplingError(RuntimeError):
@@ -105,6 +110,13 @@ class Master:
         self.max_iterations = max_iterations
         self._check_connections()
         self.order = stepping_order(self.types, self.connections)
+        # Coupled groups with a single-signal tear step in the tear's order (see tear_of).
+        self.tears: dict[tuple[str, ...], tuple[str, str]] = {}
+        for k, group in enumerate(self.order):
+            found = tear_of(group, self.connections) if len(group) > 1 else None
+            if found is not None:
+                self.order[k] = found[1]
+                self.tears[tuple(found[1])] = found[0]
         self.loops = algebraic_loops(self.connections,
                                      {n: feedthrough_of(t, self.fmus.get(n)) for n, t in self.types.items()})
         self.iterations = 0  # loop iterations done in the last run, for diagnostics
@@ -192,7 +204,8 @@ class Master:
 
     def _run(self, fmus, times, outputs, external, labels) -> pd.DataFrame:
         self.iterations = 0
-        self._previous_end: dict[tuple[str, str], float] = {}
+        self._previous_end: dict[tuple[str, str], float] = {}  # predicted end values of loop signals
+        self._tear_slope: dict[tuple[str, str], float] = {}  # r' of each tear's last step (tear.py)
         external = {self._split(k): v for k, v in external.items()}
         signals = {(c.source, c.output): 0.0 for c in self.connections}
         t = float(times[0])
@@ -269,7 +282,9 @@ class Master:
         links = [(index[c.source], index[c.target], fmus[c.source].vr[c.output], fmus[c.target].vr[c.input])
                  for c in self.connections]
         groups = [[index[name] for name in group] for group in self.order]
-        recorded, system = run_system([fmus[n].slave for n in names], links, drives, groups, grid, record,
+        tears = [self.tears.get(tuple(group)) for group in self.order]
+        tears = [(index[tear[0]], fmus[tear[0]].vr[tear[1]]) if tear else None for tear in tears]
+        recorded, system = run_system([fmus[n].slave for n in names], links, drives, groups, tears, grid, record,
                                       [(index[n], fmus[n].vr[v]) for n, v in outputs], self.loop_tolerance,
                                       self.max_iterations)
         self.iterations = int(system.iterations)
@@ -315,11 +330,12 @@ class Master:
                 refs = [fmu.vr[n] for n in names]
                 fmu._call(fmu.slave.setRealInputDerivatives, refs, [1] * len(refs), slopes)
 
-    def _solve_point(self, fmus, signals, external, t) -> None:
-        """Make connected signals consistent at one instant (the start, for loops)."""
+    def _solve_point(self, fmus, signals, external, t, links=None) -> None:
+        """Make connected signals (`links`, default all) consistent at one instant: the
+        start, and the end of a coupled step accepted at a jump (_settle)."""
         for _ in range(self.max_iterations):
             change = 0.0
-            for c in self.connections:
+            for c in links or self.connections:
                 value = self._get(fmus[c.source], c.output)
                 change = max(change, abs(value - signals[(c.source, c.output)]) / (1.0 + abs(value)))
                 signals[(c.source, c.output)] = value
@@ -356,6 +372,63 @@ class Master:
                 signals[(source, output)] = self._get(fmus[source], output)
 
     def _coupled_step(self, fmus, signals, start, external, group, internal, t, h) -> None:
+        tear = self.tears.get(tuple(group))
+        if tear is None:
+            self._iterated_step(fmus, signals, start, external, group, internal, t, h)
+            return
+        saved = {name: fmus[name].slave.getFMUstate() for name in group}
+        solver = TearSolver(self._previous_end.get(tear, start[tear]), self._tear_slope.get(tear, 0.0),
+                            self.loop_tolerance, self.max_iterations)
+        try:
+            while True:  # the step as last evaluated is the one accepted
+                self.iterations += 1
+                x = solver.guess
+                outcome = solver.update(x, self._torn_step(fmus, signals, start, external, group, tear, x, t, h))
+                if outcome != CONTINUE:
+                    break
+                for name in group:
+                    fmus[name].slave.setFMUstate(saved[name])
+        finally:
+            for name in group:
+                fmus[name].slave.freeFMUstate(saved[name])
+        if outcome == EXHAUSTED:
+            raise CouplingError(
+                f"algebraic loop {self._loop_text()} did not converge over [{t:.9g}, {t + h:.9g}] s "
+                f"after {self.max_iterations} iterations (last relative change {solver.change:.3g})")
+        if outcome == JUMP:
+            self._settle(fmus, signals, external, internal, t + h)
+        self._publish(fmus, signals, group)
+        # The next step's first guess: this end extrapolated linearly along the step, unless
+        # the step ended at a jump (then extrapolating across it would be wrong: held).
+        end = signals[tear]
+        self._previous_end[tear] = end if outcome == JUMP else 2 * end - start[tear]
+        self._tear_slope[tear] = 0.0 if outcome == JUMP else solver.slope  # across a jump: meaningless
+
+    def _torn_step(self, fmus, signals, start, external, group, tear, x, t, h) -> float:
+        """Step the group's members in order over [t, t+h] with the torn signal's end value
+        guessed as x; returns its end value as computed."""
+        ends = dict(signals)  # inputs' end values: outputs of earlier groups, then of earlier members
+        ends[tear] = x
+        for name in group:
+            self._set_inputs(fmus, external, start, ends, t, h, members=[name])
+            self._do_step(fmus[name], t, h)
+            for key in ends:
+                if key[0] == name and key != tear:
+                    ends[key] = self._get(fmus[name], key[1])
+        return self._get(fmus[tear[0]], tear[1])
+
+    def _settle(self, fmus, signals, external, internal, t) -> None:
+        """After a step accepted at a jump: the partner was stepped with the guess, not with
+        the torn signal's computed end value, so the group's signals at t disagree by the
+        jump. Pass them on around the loop until they agree; each FMU makes its mode
+        consistent with its new inputs when its outputs are read (a cart that came to rest
+        stays stuck only while the holding force, with the pendulum's acceleration that
+        a = 0 causes, is within the threshold). The FMUs' own mode logic decides."""
+        self._solve_point(fmus, signals, external, t, internal)
+
+    def _iterated_step(self, fmus, signals, start, external, group, internal, t, h) -> None:
+        """A group without a single-signal tear: fixed-point iteration on all its internal
+        signals (not robust through events; no such group in the rig)."""
         keys = sorted({(c.source, c.output) for c in internal})
         guesses = dict(signals)
         for key in keys:
