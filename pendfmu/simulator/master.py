@@ -29,12 +29,8 @@ import pandas as pd
 from fmpy.fmi1 import FMICallException
 
 from pendfmu.simulator.component import ComponentFMU, FMUError, unpacked_fmu
+from pendfmu.simulator.coupled import CoupledSteps, CouplingError
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order, tear_of
-from pendfmu.simulator.tear import CONTINUE, EXHAUSTED, JUMP, TearSolver
-
-
-class CouplingError(RuntimeError):
-    """A coupled group (algebraic loop) did not converge at a communication point."""
 
 
 @dataclass
@@ -88,7 +84,7 @@ def feedthrough_of(component_type: str, fmu: str | Path | None = None) -> dict[s
     return result
 
 
-class Master:
+class Master(CoupledSteps):
     """A system of component FMUs connected output to input.
 
     `components` maps instance names to component types (CurrentLoop, Cart, Pendulum);
@@ -120,6 +116,8 @@ class Master:
         self.loops = algebraic_loops(self.connections,
                                      {n: feedthrough_of(t, self.fmus.get(n)) for n, t in self.types.items()})
         self.iterations = 0  # loop iterations done in the last run, for diagnostics
+        self.jumps = 0  # pieces of coupled steps in the last run whose loop map jumped (tear.py)
+        self.events = 0  # events inside coupled steps crossed by held pieces (coupled.py)
         self._kept_timeline = None  # see _timeline and _drive
         self._kept_drives: dict[tuple[str, str], tuple] = {}
 
@@ -203,7 +201,7 @@ class Master:
         return name, variable
 
     def _run(self, fmus, times, outputs, external, labels) -> pd.DataFrame:
-        self.iterations = 0
+        self.iterations = self.jumps = self.events = 0
         self._previous_end: dict[tuple[str, str], float] = {}  # predicted end values of loop signals
         self._tear_slope: dict[tuple[str, str], float] = {}  # r' of each tear's last step (tear.py)
         external = {self._split(k): v for k, v in external.items()}
@@ -284,10 +282,11 @@ class Master:
         groups = [[index[name] for name in group] for group in self.order]
         tears = [self.tears.get(tuple(group)) for group in self.order]
         tears = [(index[tear[0]], fmus[tear[0]].vr[tear[1]]) if tear else None for tear in tears]
-        recorded, system = run_system([fmus[n].slave for n in names], links, drives, groups, tears, grid, record,
-                                      [(index[n], fmus[n].vr[v]) for n, v in outputs], self.loop_tolerance,
+        clocks = [fmus[n].vr.get("t_mode") for n in names]  # events inside coupled steps (coupled.py)
+        recorded, system = run_system([fmus[n].slave for n in names], links, drives, groups, tears, clocks, grid,
+                                      record, [(index[n], fmus[n].vr[v]) for n, v in outputs], self.loop_tolerance,
                                       self.max_iterations)
-        self.iterations = int(system.iterations)
+        self.iterations, self.jumps, self.events = int(system.iterations), int(system.jumps), int(system.events)
         if system.fail_kind in (2, 4):
             t = system.fail_time
             where = (f"at t = {t:.9g} s" if system.fail_kind == 4 else
@@ -308,25 +307,30 @@ class Master:
     def _get(self, fmu: ComponentFMU, variable: str) -> float:
         return fmu.get(variable)[0]
 
-    def _set_inputs(self, fmus, external, start, end, t, h, members=None) -> None:
+    def _set_inputs(self, fmus, external, start, end, t, h, members=None, length=None, offset=0.0) -> None:
         """Set every input of the members to its value at t, with the slope over [t, t+h]
-        towards its value at t+h (`end`: outputs of sources already stepped, or guesses)."""
+        towards its value at t+h (`end`: outputs of sources already stepped, or guesses).
+        For a piece of the step (coupled.py): `length` is the piece's, connected inputs go
+        from `start` to `end` over it, and external ones start `offset` after t."""
+        length = h if length is None else length
         for name in members or fmus:
             names, values, slopes = [], [], []
             for (target, variable), signal in external.items():
                 if target == name:
                     value, slope = signal.value_and_slope(t, h)
-                    names.append(variable), values.append(value), slopes.append(slope)
+                    if offset != 0.0:
+                        value = value + slope * offset
+                    names.append(variable), values.append(value), slopes.append(slope if length > 0 else 0.0)
             for c in self.connections:
                 if c.target == name:
                     key = (c.source, c.output)
                     names.append(c.input), values.append(start[key])
-                    slopes.append((end[key] - start[key]) / h if h > 0 else 0.0)
+                    slopes.append((end[key] - start[key]) / length if length > 0 else 0.0)
             if not names:
                 continue
             fmu = fmus[name]
             fmu.set(**dict(zip(names, values)))
-            if h > 0 and any(slopes):
+            if length > 0 and any(slopes):
                 refs = [fmu.vr[n] for n in names]
                 fmu._call(fmu.slave.setRealInputDerivatives, refs, [1] * len(refs), slopes)
 
@@ -370,90 +374,3 @@ class Master:
         for (source, output) in signals:
             if source in names:
                 signals[(source, output)] = self._get(fmus[source], output)
-
-    def _coupled_step(self, fmus, signals, start, external, group, internal, t, h) -> None:
-        tear = self.tears.get(tuple(group))
-        if tear is None:
-            self._iterated_step(fmus, signals, start, external, group, internal, t, h)
-            return
-        saved = {name: fmus[name].slave.getFMUstate() for name in group}
-        solver = TearSolver(self._previous_end.get(tear, start[tear]), self._tear_slope.get(tear, 0.0),
-                            self.loop_tolerance, self.max_iterations)
-        try:
-            while True:  # the step as last evaluated is the one accepted
-                self.iterations += 1
-                x = solver.guess
-                outcome = solver.update(x, self._torn_step(fmus, signals, start, external, group, tear, x, t, h))
-                if outcome != CONTINUE:
-                    break
-                for name in group:
-                    fmus[name].slave.setFMUstate(saved[name])
-        finally:
-            for name in group:
-                fmus[name].slave.freeFMUstate(saved[name])
-        if outcome == EXHAUSTED:
-            raise CouplingError(
-                f"algebraic loop {self._loop_text()} did not converge over [{t:.9g}, {t + h:.9g}] s "
-                f"after {self.max_iterations} iterations (last relative change {solver.change:.3g})")
-        if outcome == JUMP:
-            self._settle(fmus, signals, external, internal, t + h)
-        self._publish(fmus, signals, group)
-        # The next step's first guess: this end extrapolated linearly along the step, unless
-        # the step ended at a jump (then extrapolating across it would be wrong: held).
-        end = signals[tear]
-        self._previous_end[tear] = end if outcome == JUMP else 2 * end - start[tear]
-        self._tear_slope[tear] = 0.0 if outcome == JUMP else solver.slope  # across a jump: meaningless
-
-    def _torn_step(self, fmus, signals, start, external, group, tear, x, t, h) -> float:
-        """Step the group's members in order over [t, t+h] with the torn signal's end value
-        guessed as x; returns its end value as computed."""
-        ends = dict(signals)  # inputs' end values: outputs of earlier groups, then of earlier members
-        ends[tear] = x
-        for name in group:
-            self._set_inputs(fmus, external, start, ends, t, h, members=[name])
-            self._do_step(fmus[name], t, h)
-            for key in ends:
-                if key[0] == name and key != tear:
-                    ends[key] = self._get(fmus[name], key[1])
-        return self._get(fmus[tear[0]], tear[1])
-
-    def _settle(self, fmus, signals, external, internal, t) -> None:
-        """After a step accepted at a jump: the partner was stepped with the guess, not with
-        the torn signal's computed end value, so the group's signals at t disagree by the
-        jump. Pass them on around the loop until they agree; each FMU makes its mode
-        consistent with its new inputs when its outputs are read (a cart that came to rest
-        stays stuck only while the holding force, with the pendulum's acceleration that
-        a = 0 causes, is within the threshold). The FMUs' own mode logic decides."""
-        self._solve_point(fmus, signals, external, t, internal)
-
-    def _iterated_step(self, fmus, signals, start, external, group, internal, t, h) -> None:
-        """A group without a single-signal tear: fixed-point iteration on all its internal
-        signals (not robust through events; no such group in the rig)."""
-        keys = sorted({(c.source, c.output) for c in internal})
-        guesses = dict(signals)
-        for key in keys:
-            guesses[key] = self._previous_end.get(key, start[key])
-        saved = {name: fmus[name].slave.getFMUstate() for name in group}
-        try:
-            for _ in range(self.max_iterations):
-                self.iterations += 1
-                self._set_inputs(fmus, external, start, guesses, t, h, members=group)
-                for name in group:
-                    self._do_step(fmus[name], t, h)
-                ends = {key: self._get(fmus[key[0]], key[1]) for key in keys}
-                change = max(abs(ends[k] - guesses[k]) / (1.0 + abs(ends[k])) for k in keys)
-                if change <= self.loop_tolerance:
-                    break
-                guesses.update(ends)
-                for name in group:
-                    fmus[name].slave.setFMUstate(saved[name])
-            else:
-                raise CouplingError(
-                    f"algebraic loop {self._loop_text()} did not converge over [{t:.9g}, {t + h:.9g}] s "
-                    f"after {self.max_iterations} iterations (last relative change {change:.3g})")
-        finally:
-            for name in group:
-                fmus[name].slave.freeFMUstate(saved[name])
-        # The next interval's first guess: this interval's end, extrapolated linearly.
-        self._previous_end.update({k: 2 * ends[k] - start[k] for k in keys})
-        self._publish(fmus, signals, group)
