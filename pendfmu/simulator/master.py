@@ -7,15 +7,16 @@ value at t and the slope to t+h through fmi2SetRealInputDerivatives, i.e. linear
 interpolation, second-order accurate, instead of a value held (and so delayed by h/2).
 
 Coupled groups (components that feed each other, e.g. cart and pendulum with a
-back-drivable screw) are stepped together and solved: the loop is torn at one signal
-(graph.tear_of; the cart's acceleration for the rig), its end value at t+h is guessed, the
-members step in turn with inputs interpolated towards the guess and towards the outputs
-of the members stepped before them, and the torn signal's end value is compared with the
-guess; the members are rolled back with fmi2SetFMUstate and the guess improved by a
-safeguarded root finder that also handles the jumps stick-slip events cause
-(tear.py). A group without a single-signal tear is iterated on all its internal signals
-(fixed point). A group that does not converge is an error naming the loop and the time,
-never a silent delay.
+back-drivable screw) are stepped together and solved (coupled.py): the loop is torn at one
+signal (graph.tear_of; the cart's acceleration for the rig), its end value at t+h is
+guessed, the members step in turn with inputs interpolated towards the guess and towards
+the outputs of the members stepped before them, and the torn signal's end value is
+compared with the guess; the members are rolled back with fmi2SetFMUstate and the guess
+improved by a safeguarded root finder that also handles the jumps stick-slip events cause
+(tear.py). Events inside a coupled step are located and crossed with consistent partners.
+A group without a single-signal tear is iterated on all its internal signals (fixed
+point). A group that does not converge is an error naming the loop and the time, never a
+silent delay.
 """
 
 from __future__ import annotations

@@ -1,19 +1,22 @@
-"""Solving a coupled group's algebraic loop over one communication step, on one tear signal.
+"""Solving a coupled group's algebraic loop over a step, on one tear signal.
 
-The problem. Over [t, t+h] a coupled group (cart and pendulum on a back-drivable screw)
-needs the end values of the signals its members exchange. Tearing the loop at one signal
-(the cart's acceleration a, which the pendulum takes as input) makes it one equation in
-one unknown: guess the tear's end value x, step the pendulum with its input interpolated
-from a(t) to x, step the cart with the pendulum's outputs, and read the cart's a at t+h,
-G(x). The step is consistent where r(x) = G(x) - x = 0.
+The problem. Over a step [a, b] (a communication step, or a piece of one: coupled.py) a
+coupled group (cart and pendulum on a back-drivable screw) needs the end values of the
+signals its members exchange. Tearing the loop at one signal (the cart's acceleration a,
+which the pendulum takes as input) makes it one equation in one unknown: guess the tear's
+end value x, step the pendulum with its input interpolated from its value at a to x,
+step the cart with the pendulum's outputs, and read the cart's acceleration at b, G(x).
+The step is consistent where r(x) = G(x) - x = 0.
 
 Why plain fixed-point iteration (x <- G(x)) is not enough. While both joints slide, G is
-smooth with a small slope (the loop gain A m^2 l^2 cos^2(phi) / (M J), below 0.1 for the
-rig), and fixed-point iteration contracts. But a joint that sticks, breaks away or reverses
-inside the step makes G jump: a guess on one side lets the cart reach v = 0 just before
-t+h (G = 0, stuck), a guess on the other just after (G = the braking deceleration). Then r
-changes sign without a zero, no fixed point exists, and fixed-point iteration jumps
-between the two branches forever (issue 12: the cart's stop at t = 0.0588 s).
+smooth with a small slope (the loop gain A m^2 l^2 cos^2(phi) / (M J), below
+m_p / (m_c + m_p) for any rod or bob, 0.027 for MODEL.md's rig at eta 0.7), and fixed-point
+iteration contracts. But a joint that sticks, breaks away or reverses near the step's end
+makes G jump: a guess on one side lets the cart reach v = 0 just before b (G = 0, stuck),
+a guess on the other just after (G = the braking deceleration). Then r changes sign
+without a zero, no fixed point exists, and fixed-point iteration jumps between the two
+branches forever (issue 12: the cart's stop at t = 0.0588 s, 1.7 us before a
+communication point).
 
 The method: safeguarded scalar root finding on r.
   1. The first guess is the tear's value predicted from the previous steps; the second
@@ -33,40 +36,41 @@ The method: safeguarded scalar root finding on r.
      r' = G' - 1), or narrower than the tolerance itself.
 
 What a solution at a jump means. There is none of x = G(x); its Filippov (set-valued)
-solution is the x_c where the bracket closes, with x_c between G's one-sided limits: the
-guess at which the event falls exactly on t+h. The two ends of the final bracket differ
-by less than 1e-6 of the jump, so the members' continuous states at t+h agree to that
-precision at both; only the side of t+h on which the event falls differs: at the pre-event
-end the joint stops (breaks away, reverses) just after t+h, at the post-event end just
-before. An event at t+h means: over [t, t+h) the torn signal followed its pre-event
-course, ending at its left limit g_pre (G at the pre-event end), and at t+h it jumps to
-g_post (G at the post-event end). The linear coupling represents exactly this: the
-consumers' inputs ramp to g_pre, and the next step starts from g_post (inputs are set
-anew at every communication point, so a jump can sit on one). So the step is accepted
-with the consumers driven to x = g_pre and the FMU states after the event: for a cart
-that comes to rest, stuck with a = 0 exactly and its holding force within the threshold,
-the friction law's (and the FMU's own mode logic's) answer at v = 0. Those states come
-from one more evaluation at x = g_pre, which lies on the post-event side of the jump
-(without a fixed point, each branch's output lies on the other branch's side, which is why
-fixed-point iteration cycles), so the event happens inside that step, displaced from t+h
-only by the event time's weak dependence on the guess. That evaluation is checked: its G
-must lie nearer g_post than g_pre (one jump, not two); else the post-event end itself is
-stepped again and accepted (the Filippov point; the consumers then ramp to x_c, an error
-of order jump * h). On the rig's failing case (issue 12) the left-limit treatment brings
-the pendulum from 9e-5 rad to 2e-8 rad of the reference.
+solution is the x_c where the bracket closes, between G's one-sided limits: the guess at
+which the event falls exactly on b. The bracket's two ends differ by less than 1e-6 of the
+jump, so the members' continuous states at b agree to that precision at both; only the side
+of b on which the event falls differs. An event at b means: over [a, b) the torn signal
+followed its course from before the event, ending at its left limit g_pre (G at the
+pre-event end), and at b it jumps to g_post (G at the post-event end). The linear coupling
+represents exactly this: the consumers' inputs ramp to g_pre, and the next step starts
+from g_post (inputs are set anew at every step, so a jump can sit on a step's end). So
+the step is accepted with the consumers driven to x = g_pre and the FMU states after the
+event: for a cart that comes to rest, stuck with a = 0 exactly. Those states come from one
+more evaluation at x = g_pre, which lies on the post-event side of the jump (without a
+fixed point each branch's output lies on the other branch's side, which is why fixed-point
+iteration cycles), so the event happens inside that step, displaced from b only by the
+event time's weak dependence on the guess. That evaluation is checked: its G must lie
+nearer g_post than g_pre (one jump, not two); else the post-event end itself is stepped
+again and accepted (the Filippov point; the consumers then ramp to x_c, an error of order
+jump * h). On issue 12's case the Filippov point leaves the pendulum 9e-5 rad from the
+reference, the left limit 2e-8 rad.
 
 Which end is post-event: the event is what breaks the torn signal from its smooth course,
 so it is the end whose G lies farther from the smooth prediction x0 (the linear
 extrapolation of the previous steps). For a joint that comes to rest that is the stuck
-end, for a reversal the reversed one; where a stop falls exactly on the stiction
-threshold (stick or reverse: both limits agree with MODEL.md's law there), again the stuck
-one, since holding changes a more than reversing does. If the prediction were off by more
-than half the jump (tiny jumps), the other end is taken: still consistent, with the error
-of order jump * h of the plain Filippov point. After accepting a jump the master makes the
-coupled signals agree at t+h through the FMUs' own mode logic (Master._settle), since the
-consumers were stepped with g_pre, not with g_post.
+end, for a reversal the reversed one; where a stop falls on the stiction threshold (stick
+or reverse), the stuck one, since holding changes a more than reversing does. If the
+prediction were off by more than half the jump (tiny jumps), the other end is taken:
+still a consistent state, with the error of order jump * h of the Filippov point.
 
-The native engine (fmus/runner/runner.c) implements this class operation for operation,
+Where the master can locate events (coupled.py), an event accepted this way lies inside
+the step and the step is then cut there, so that the event's stick-or-slip decision is
+taken with consistent partners; this jump treatment is what makes every solve terminate
+on a state the FMUs' own mode logic produced, and the fallback where events cannot be
+located. After a step accepted at a jump the master makes the coupled signals agree at b
+through the FMUs' own mode logic (coupled._settle).
+
+The native engine (fmus/runner/tear.h) implements this class operation for operation,
 so that both engines stay bit-identical; change both together.
 """
 
