@@ -79,8 +79,8 @@ def random_rig(rng) -> Rig:
 
 def targeted_rig(rng, max_draws: int = 20) -> tuple[Rig, float] | None:
     """A rig whose cart stops or reverses 0 to 3 us before a communication point: there the
-    loop map jumps across its fixed point (issue 12's failure, which random grids hit in
-    about one rig of 300). A constant command makes the rig time-invariant, so the grid can
+    loop map may jump across its fixed point (issue 12's failure, which random grids hit in
+    3 rigs of 300, these in a third). A constant command makes the rig time-invariant, so the grid can
     be stretched (the step stays within 2 % of 0.2 ms) to put a point just after the event the
     reference finds, without changing the physics. Returns (rig, event time), or None if no
     draw had a cart event in (5, 250) ms."""

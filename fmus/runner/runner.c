@@ -368,7 +368,8 @@ static int solve_piece(System *s, const Plan *plan, size_t g, size_t k, const do
 static int tear_step(System *s, const Plan *plan, size_t g, size_t k, double *start, double *signal, Piece *p,
                      TearMemory *memory, fmi2FMUstate *saved, double t, double h) {
     size_t tear_link = 0;
-    while (!is_tear(s, g, tear_link)) tear_link++;
+    while (tear_link < s->n_links && !is_tear(s, g, tear_link)) tear_link++;
+    if (tear_link == s->n_links) return fail(s, 1, s->tear_unit[g], t); /* the tear feeds no link: not a tear */
     const double end_time = t + h;
     for (size_t l = 0; l < s->n_links; l++) p->at[l] = start[l];
     double a = t, b = end_time, event = 0.0;

@@ -16,7 +16,7 @@ enum { TEAR_SEARCH, TEAR_LEFT_LIMIT, TEAR_POST_EVENT };
 
 /* tear.py's JUMP_RESOLUTION: a bracket narrower than this fraction of the residual's jump
  * across it is a discontinuity. */
-#define TEAR_JUMP_RESOLUTION 1e-6
+#define TEAR_JUMP_RESOLUTION 1e-5
 
 typedef struct {
     double prediction, guess, slope, tolerance;

@@ -41,9 +41,11 @@ from pendfmu.simulator.tear import CONTINUE, CONVERGED, EXHAUSTED, JUMP, TearSol
 
 #: The held piece across an event starts this fraction of the communication step before it
 #: and ends as far after it. Why 1e-3: the event time estimated from a piece whose inputs
-#: follow the course before the event moves by far less when re-solved, so the event stays
-#: inside the held piece, whose error (the pendulum sees the cart's post-event acceleration
-#: from the piece's start on) is then a thousandth of the smearing it replaces.
+#: follow the course before the event moves by far less when re-solved (on 60 random rigs,
+#: 184 of 190 steps with an event needed no second estimate), so the event stays inside the
+#: held piece, whose error (the pendulum sees the cart's post-event acceleration from the
+#: piece's start on: |jump| * 2e-3 h at most) is a small part of the smearing it replaces
+#: (up to |jump| * h / 2).
 EVENT_MARGIN = 1e-3
 #: Pieces one communication step may be cut into; beyond, the rest is stepped whole (a
 #: chattering joint cannot make a step endless).
@@ -114,11 +116,10 @@ class CoupledSteps:
 
         `inside`: the time of the earliest event inside the accepted piece (None: none, or a
         held piece); `estimate`: that event's time as the first evaluation had it, if it had
-        one inside, else `inside`. Why the first: it
-        follows the predicted course from before the event, while the accepted evaluation's
-        coupled inputs lean towards their values after it, which moves the event earlier
-        (on a rig's breakaway by 7e-5 s, a third of a step; pieces then crept up on the
-        event and never reached it)."""
+        one inside, else `inside`. Why the first: it follows the predicted course from before
+        the event, while the accepted evaluation's coupled inputs lean towards their values
+        after it, which moves the event earlier (on a rig's breakaway by 6.6 us, a thirtieth
+        of a step; pieces then crept up on the event and used up MAX_PIECES short of it)."""
         solver = TearSolver(prediction, self._tear_slope.get(tear, 0.0), self.loop_tolerance, self.max_iterations)
         first = None
         while True:  # the piece as last evaluated is the one accepted
