@@ -50,12 +50,16 @@ long pendfmu_run_single(const Unit *unit, size_t n_points, const double *times,
  *
  * The co-simulation master of pendfmu/simulator/master.py, step for step: components in
  * Gauss-Seidel groups; every connected input gets its value at t and its slope towards
- * t+h; a group whose members feed each other is iterated with FMU-state rollback until
- * its internal signals reproduce their guesses. The Python master stays the reference:
- * both do the same floating-point operations in the same order, so they agree to the bit.
+ * t+h; a group whose members feed each other is torn at one signal and solved with
+ * FMU-state rollback by the root finder of tear.h (or, without a single-signal tear,
+ * iterated until its internal signals reproduce their guesses). The Python master stays
+ * the reference: both do the same floating-point operations in the same order, so they
+ * agree to the bit.
  */
 #include <math.h>
 #include <stdlib.h>
+
+#include "tear.h"
 
 typedef struct {
     Unit f;
@@ -86,6 +90,9 @@ typedef struct {
     size_t n_groups;
     const int *group_start; /* n_groups + 1 offsets into group_members */
     const int *group_members;
+    const int *tear_unit; /* per group: the unit whose output tears its loop, or -1 (none) */
+    const fmi2ValueReference *tear_vr;
+    const long *event_vr; /* per unit: value reference of its t_mode (time of its last mode change), or -1 */
     double tolerance;
     int max_iterations;
     size_t n_points;
@@ -97,6 +104,8 @@ typedef struct {
     double *outputs;
     /* results */
     long iterations;
+    long jumps;  /* pieces of coupled steps whose loop map jumped (tear.h) */
+    long events; /* events inside coupled steps crossed by held pieces */
     double fail_time;
     int fail_kind; /* 0 none, 1 fmi2 call failed, 2 a coupled step did not converge, 3 out of memory,
                       4 the connected signals are not consistent at the start, 5 a unit has more
@@ -125,6 +134,12 @@ typedef struct {
     unsigned char *coupled; /* per group: its members feed each other */
 } Plan;
 
+/* What a run keeps between steps for its tears (master.py: _previous_end, _tear_slope). */
+typedef struct {
+    double prediction, slope;
+    int has_prediction;
+} TearMemory;
+
 static int in_group(const System *s, size_t g, int unit) {
     for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
         if (s->group_members[m] == unit) return 1;
@@ -136,9 +151,11 @@ static int get_one(const System *s, int unit, fmi2ValueReference vr, double *val
     return u->get_real(u->component, &vr, 1, value) <= fmi2Warning;
 }
 
-/* Set every input of `unit` at the step's start, with slopes towards `end`. */
+/* Set every input of `unit` at the step's start, with slopes towards `end` over h. For a
+ * piece of a coupled step, h is the piece's length and the drives start `offset` after the
+ * communication point k (master._set_inputs). */
 static int set_inputs(const System *s, const Plan *plan, int unit, size_t k, const double *start, const double *end,
-                      double h) {
+                      double h, double offset) {
     const Ports *ports = &plan->ports[unit];
     double values[MAX_PORTS], slopes[MAX_PORTS];
     fmi2Integer orders[MAX_PORTS];
@@ -150,7 +167,8 @@ static int set_inputs(const System *s, const Plan *plan, int unit, size_t k, con
             values[j] = start[i];
             slopes[j] = h > 0 ? (end[i] - start[i]) / h : 0.0;
         } else {
-            values[j] = s->drives[i].values[k];
+            const double value = s->drives[i].values[k];
+            values[j] = offset != 0.0 ? value + s->drives[i].slopes[k] * offset : value;
             slopes[j] = h > 0 ? s->drives[i].slopes[k] : 0.0;
         }
         any_slope |= slopes[j] != 0.0;
@@ -217,12 +235,19 @@ static int publish(System *s, const Plan *plan, size_t g, double *signal, double
     return 1;
 }
 
-static int solve_point(System *s, double *signal, double t) {
+static int is_internal(const System *s, size_t g, size_t l) {
+    return in_group(s, g, s->links[l].source) && in_group(s, g, s->links[l].target);
+}
+
+/* Make the signals of the links consistent at one instant: all links (group < 0, at the
+ * start) or those internal to a group (after a step accepted at a jump: master._settle). */
+static int solve_point(System *s, double *signal, double t, long group) {
     for (int it = 0; it < s->max_iterations; it++) {
         double change = 0.0;
         for (size_t l = 0; l < s->n_links; l++) {
             double value;
             const Link *link = &s->links[l];
+            if (group >= 0 && !is_internal(s, (size_t)group, l)) continue;
             if (!get_one(s, link->source, link->source_vr, &value)) return fail(s, 1, link->source, t);
             change = fmax(change, fabs(value - signal[l]) / (1.0 + fabs(value)));
             signal[l] = value;
@@ -236,12 +261,168 @@ static int solve_point(System *s, double *signal, double t) {
     return fail(s, 4, -1, t);
 }
 
-static int coupled_step(System *s, const Plan *plan, size_t g, size_t k, double *start, double *signal, double *guess,
-                        double *previous_end, unsigned char *has_previous, fmi2FMUstate *saved, double t, double h) {
+static int is_tear(const System *s, size_t g, size_t l) {
+    return s->links[l].source == s->tear_unit[g] && s->links[l].source_vr == s->tear_vr[g];
+}
+
+/* coupled.py's EVENT_MARGIN and MAX_PIECES */
+#define EVENT_MARGIN 1e-3
+#define MAX_PIECES 16
+
+/* The arrays a coupled step works on (per link): at: the group's signals at the piece's
+ * start; first, last: every input's value at the piece's start and end. */
+typedef struct {
+    double *at, *first, *last;
+} Piece;
+
+/* Step group g's members in order over the piece [a, b] of [t, t+h] with the tear's end value
+ * guessed as x (coupled._torn_step); *out receives the tear's end value as computed. */
+static int torn_step(System *s, const Plan *plan, size_t g, size_t k, const double *start, const double *signal,
+                     Piece *p, double x, double t, double h, double a, double b, int held, double *out) {
+    const double end_time = t + h;
+    const double length = (a == t && b == end_time) ? h : b - a;
+    for (size_t l = 0; l < s->n_links; l++) {
+        if (is_internal(s, g, l)) {
+            p->first[l] = p->last[l] = p->at[l];
+        } else {
+            p->first[l] = a == t ? start[l] : start[l] + (signal[l] - start[l]) * ((a - t) / h);
+            p->last[l] = b == end_time ? signal[l] : start[l] + (signal[l] - start[l]) * ((b - t) / h);
+        }
+        if (is_tear(s, g, l)) p->last[l] = x;
+    }
+    for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
+        const int unit = s->group_members[m];
+        if (held)
+            for (size_t l = 0; l < s->n_links; l++)
+                if (is_internal(s, g, l)) p->first[l] = p->last[l];
+        if (!set_inputs(s, plan, unit, k, p->first, p->last, length, a - t)) return fail(s, 1, unit, t);
+        if (!do_step(s, unit, a, length)) return 0;
+        for (size_t l = 0; l < s->n_links; l++)
+            if (s->links[l].source == unit && !is_tear(s, g, l) &&
+                !get_one(s, unit, s->links[l].source_vr, &p->last[l]))
+                return fail(s, 1, unit, t);
+    }
+    if (!get_one(s, s->tear_unit[g], s->tear_vr[g], out)) return fail(s, 1, s->tear_unit[g], t);
+    return 1;
+}
+
+static int save_states(System *s, size_t g, fmi2FMUstate *saved, int restore, double t) {
+    for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
+        const int unit = s->group_members[m];
+        SystemUnit *u = &s->units[unit];
+        const fmi2Status status = restore ? u->set_state(u->f.component, saved[unit])
+                                          : u->get_state(u->f.component, &saved[unit]);
+        if (status > fmi2Warning) return fail(s, 1, unit, t);
+    }
+    return 1;
+}
+
+/* The earliest mode change of a member strictly inside (a, b), from its t_mode
+ * (coupled._event_inside): *found is 0 if none. */
+static int event_inside(System *s, size_t g, double a, double b, int *found, double *earliest, double t) {
+    *found = 0;
+    for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
+        const int unit = s->group_members[m];
+        double t_mode;
+        if (s->event_vr[unit] < 0) continue;
+        if (!get_one(s, unit, (fmi2ValueReference)s->event_vr[unit], &t_mode)) return fail(s, 1, unit, t);
+        if (a < t_mode && t_mode < b && (!*found || t_mode < *earliest)) {
+            *found = 1;
+            *earliest = t_mode;
+        }
+    }
+    return 1;
+}
+
+/* Solve the tear over the piece [a, b] from the states saved at a (coupled._solve_piece):
+ * the members end at b as accepted; *inside: whether an event fell strictly inside the
+ * accepted piece (not asked for a held one), *estimate its time as the first evaluation had
+ * it if it had one inside, else as the accepted one has it. */
+static int solve_piece(System *s, const Plan *plan, size_t g, size_t k, const double *start, const double *signal,
+                       Piece *p, const TearMemory *memory, double prediction, fmi2FMUstate *saved, double t, double h,
+                       double a, double b, int held, TearSolver *solver, int *outcome, int *inside, double *estimate) {
+    int first_found = 0;
+    double first = 0.0, event = 0.0;
+    tear_start(solver, prediction, memory->slope, s->tolerance, s->max_iterations);
+    for (;;) {
+        const double x = solver->guess;
+        double computed;
+        s->iterations++;
+        if (!torn_step(s, plan, g, k, start, signal, p, x, t, h, a, b, held, &computed)) return 0;
+        if (solver->evaluations == 0 && !held && !event_inside(s, g, a, b, &first_found, &first, t)) return 0;
+        *outcome = tear_update(solver, x, computed);
+        if (*outcome != TEAR_CONTINUE) break;
+        if (!save_states(s, g, saved, 1, t)) return 0;
+    }
+    s->last_change = solver->change;
+    if (*outcome == TEAR_EXHAUSTED) return fail(s, 2, -1, t);
+    s->jumps += *outcome == TEAR_JUMP;
+    *inside = 0;
+    if (!held && !event_inside(s, g, a, b, inside, &event, t)) return 0;
+    *estimate = first_found ? first : event;
+    return 1;
+}
+
+/* A coupled step of a group with a tear (coupled._coupled_step): pieces of the step solved by
+ * the root finder of tear.h, split at the events the members report. */
+static int tear_step(System *s, const Plan *plan, size_t g, size_t k, double *start, double *signal, Piece *p,
+                     TearMemory *memory, fmi2FMUstate *saved, double t, double h) {
+    size_t tear_link = 0;
+    while (tear_link < s->n_links && !is_tear(s, g, tear_link)) tear_link++;
+    if (tear_link == s->n_links) return fail(s, 1, s->tear_unit[g], t); /* the tear feeds no link: not a tear */
+    const double end_time = t + h;
+    for (size_t l = 0; l < s->n_links; l++) p->at[l] = start[l];
+    double a = t, b = end_time, event = 0.0;
+    int held = 0, pieces = 0, has_event = 0, outcome = TEAR_CONTINUE;
+    double prediction = memory->has_prediction ? memory->prediction : start[tear_link];
+    TearSolver solver;
+    if (!save_states(s, g, saved, 0, t)) return 0;
+    for (;;) {
+        int inside;
+        double estimate;
+        if (!solve_piece(s, plan, g, k, start, signal, p, memory, prediction, saved, t, h, a, b, held, &solver,
+                         &outcome, &inside, &estimate))
+            return 0;
+        pieces++;
+        if (inside && pieces < MAX_PIECES) { /* roll back; step to just before the event, or across it held */
+            event = estimate;
+            has_event = 1;
+            if (!save_states(s, g, saved, 1, t)) return 0;
+            const double before = event - EVENT_MARGIN * h;
+            held = !(before > a);
+            b = held ? fmin(event + EVENT_MARGIN * h, end_time) : before;
+            prediction = p->at[tear_link];
+            continue;
+        }
+        s->events += held;
+        if (outcome == TEAR_JUMP && !solve_point(s, signal, b, (long)g)) return 0;
+        if (b == end_time) break;
+        for (size_t l = 0; l < s->n_links; l++) /* accept the piece [a, b]; the next starts at b */
+            if (is_internal(s, g, l) && !get_one(s, s->links[l].source, s->links[l].source_vr, &p->at[l]))
+                return fail(s, 1, s->links[l].source, t);
+        held = has_event && !held && b < event;
+        a = b;
+        b = held ? fmin(event + EVENT_MARGIN * h, end_time) : end_time;
+        prediction = p->at[tear_link];
+        if (!save_states(s, g, saved, 0, t)) return 0;
+    }
+    if (!publish(s, plan, g, signal, t)) return 0;
+    const double end = signal[tear_link];
+    const int smooth = outcome == TEAR_CONVERGED && !has_event;
+    memory->prediction = smooth ? 2 * end - start[tear_link] : end;
+    memory->slope = outcome == TEAR_JUMP ? 0.0 : solver.slope;
+    memory->has_prediction = 1;
+    return 1;
+}
+
+/* A coupled step of a group without a single-signal tear: fixed-point iteration on all its
+ * internal signals (master._iterated_step). */
+static int iterated_step(System *s, const Plan *plan, size_t g, size_t k, double *start, double *signal, double *guess,
+                         double *previous_end, unsigned char *has_previous, fmi2FMUstate *saved, double t, double h) {
     double ends[MAX_SIGNALS];
     int internal[MAX_SIGNALS];
     for (size_t l = 0; l < s->n_links; l++) {
-        internal[l] = in_group(s, g, s->links[l].source) && in_group(s, g, s->links[l].target);
+        internal[l] = is_internal(s, g, l);
         guess[l] = internal[l] ? (has_previous[l] ? previous_end[l] : start[l]) : signal[l];
     }
     for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
@@ -253,7 +434,8 @@ static int coupled_step(System *s, const Plan *plan, size_t g, size_t k, double 
     for (int it = 0; it < s->max_iterations; it++) {
         s->iterations++;
         for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
-            if (!set_inputs(s, plan, s->group_members[m], k, start, guess, h)) return fail(s, 1, s->group_members[m], t);
+            if (!set_inputs(s, plan, s->group_members[m], k, start, guess, h, 0.0))
+                return fail(s, 1, s->group_members[m], t);
         for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
             if (!do_step(s, s->group_members[m], t, h)) return 0;
         change = 0.0;
@@ -290,23 +472,26 @@ static int record_outputs(System *s, size_t row) {
 }
 
 static int run_system(System *s, const Plan *plan, double *signal, double *start, double *guess,
-                      double *previous_end, unsigned char *has_previous, fmi2FMUstate *saved) {
+                      double *previous_end, unsigned char *has_previous, Piece *piece, TearMemory *memory,
+                      fmi2FMUstate *saved) {
     size_t row = 0;
     const double t0 = s->times[0];
     for (size_t unit = 0; unit < s->n_units; unit++)
-        if (!set_inputs(s, plan, (int)unit, 0, signal, signal, 0.0)) return fail(s, 1, (int)unit, t0);
-    if (!solve_point(s, signal, t0)) return 0;
+        if (!set_inputs(s, plan, (int)unit, 0, signal, signal, 0.0, 0.0)) return fail(s, 1, (int)unit, t0);
+    if (!solve_point(s, signal, t0, -1)) return 0;
     if (s->record[0] && !record_outputs(s, row++)) return 0;
     for (size_t k = 0; k + 1 < s->n_points; k++) {
         const double t = s->times[k], h = s->times[k + 1] - s->times[k];
         for (size_t l = 0; l < s->n_links; l++) start[l] = signal[l];
         for (size_t g = 0; g < s->n_groups; g++) {
-            if (plan->coupled[g]) {
-                if (!coupled_step(s, plan, g, k, start, signal, guess, previous_end, has_previous, saved, t, h))
+            if (plan->coupled[g] && s->tear_unit[g] >= 0) {
+                if (!tear_step(s, plan, g, k, start, signal, piece, &memory[g], saved, t, h)) return 0;
+            } else if (plan->coupled[g]) {
+                if (!iterated_step(s, plan, g, k, start, signal, guess, previous_end, has_previous, saved, t, h))
                     return 0;
             } else {
                 const int unit = s->group_members[s->group_start[g]];
-                if (!set_inputs(s, plan, unit, k, start, signal, h)) return fail(s, 1, unit, t);
+                if (!set_inputs(s, plan, unit, k, start, signal, h, 0.0)) return fail(s, 1, unit, t);
                 if (!do_step(s, unit, t, h) || !publish(s, plan, g, signal, t)) return 0;
             }
         }
@@ -318,22 +503,28 @@ static int run_system(System *s, const Plan *plan, double *signal, double *start
 __attribute__((visibility("default")))
 int pendfmu_run_system(System *s) {
     s->iterations = 0;
+    s->jumps = 0;
+    s->events = 0;
     s->fail_kind = 0;
     s->fail_unit = -1;
     if (s->n_links > MAX_SIGNALS) return fail(s, 3, -1, s->times[0]);
-    double *signal = calloc(4 * s->n_links + 1, sizeof(double));
+    double *signal = calloc(7 * s->n_links + 1, sizeof(double));
     unsigned char *has_previous = calloc(s->n_links + 1, 1);
     fmi2FMUstate *saved = calloc(s->n_units, sizeof(fmi2FMUstate));
+    TearMemory *memory = calloc(s->n_groups + 1, sizeof(TearMemory));
     Plan plan = {calloc(s->n_units + 1, sizeof(Ports)), calloc(s->n_groups * s->n_links + 1, sizeof(size_t)),
                  calloc(s->n_groups + 1, sizeof(size_t)), calloc(s->n_groups + 1, 1)};
     int ok = 0;
-    if (!(signal && has_previous && saved && plan.ports && plan.published && plan.publish_start && plan.coupled))
+    if (!(signal && has_previous && saved && memory && plan.ports && plan.published && plan.publish_start &&
+          plan.coupled))
         fail(s, 3, -1, s->times[0]);
     else if (!make_plan(s, &plan))
         fail(s, 5, -1, s->times[0]);
-    else
+    else {
+        Piece piece = {signal + 4 * s->n_links, signal + 5 * s->n_links, signal + 6 * s->n_links};
         ok = run_system(s, &plan, signal, signal + s->n_links, signal + 2 * s->n_links, signal + 3 * s->n_links,
-                        has_previous, saved);
+                        has_previous, &piece, memory, saved);
+    }
     for (size_t unit = 0; saved && unit < s->n_units; unit++)
         if (saved[unit]) s->units[unit].free_state(s->units[unit].f.component, &saved[unit]);
     free(plan.ports);
@@ -343,5 +534,6 @@ int pendfmu_run_system(System *s) {
     free(signal);
     free(has_previous);
     free(saved);
+    free(memory);
     return ok;
 }

@@ -101,3 +101,47 @@ def _cycle_order(group: list[str], edges: Mapping[str, set[str]]) -> list[str]:
         if not following:
             return path
         path.append(following[0])
+
+
+def tear_of(group: list[str], connections: Iterable[Connection]) -> tuple[tuple[str, str], list[str]] | None:
+    """A single output of the coupled group whose connections, cut, leave the group's other
+    internal connections without a cycle, and the members in the order they then step.
+
+    Why one output: a coupled step is then one scalar equation (the torn signal's end value
+    must reproduce itself), which a bracketing root finder solves through the jumps that
+    stick-slip events cause (pendfmu/simulator/tear.py); for the rig it is Cart.a, the
+    cart's acceleration that the pendulum takes. All internal connections count, not only
+    the direct feedthroughs: over a step, the pendulum's end angle depends on the cart's
+    acceleration during the step too. Candidates are tried in sorted order; None when no
+    single output will do (the master then iterates all internal signals)."""
+    members = set(group)
+    internal = [c for c in connections if c.source in members and c.target in members]
+    for candidate in sorted({(c.source, c.output) for c in internal}):
+        edges = {name: set() for name in group}
+        for c in internal:
+            if (c.source, c.output) != candidate:
+                edges[c.source].add(c.target)
+        order = _topological(sorted(group), edges)
+        if order is not None:
+            return candidate, order
+    return None
+
+
+def _topological(nodes: list[str], edges: Mapping[str, set[str]]) -> list[str] | None:
+    """Nodes in an order where every edge points forward (Kahn's algorithm, ties by name);
+    None if the edges have a cycle."""
+    incoming = {node: 0 for node in nodes}
+    for node in nodes:
+        for successor in edges[node]:
+            incoming[successor] += 1
+    ready = sorted(node for node in nodes if incoming[node] == 0)
+    order = []
+    while ready:
+        node = ready.pop(0)
+        order.append(node)
+        for successor in sorted(edges[node]):
+            incoming[successor] -= 1
+            if incoming[successor] == 0:
+                ready.append(successor)
+        ready.sort()
+    return order if len(order) == len(nodes) else None

@@ -7,11 +7,16 @@ value at t and the slope to t+h through fmi2SetRealInputDerivatives, i.e. linear
 interpolation, second-order accurate, instead of a value held (and so delayed by h/2).
 
 Coupled groups (components that feed each other, e.g. cart and pendulum with a
-back-drivable screw) are stepped together and iterated: guess the group's internal
-signals at t+h, step every member with inputs interpolated towards the guess, read the
-outputs at t+h, roll the members back with fmi2SetFMUstate and step again until the
-outputs reproduce the guess. A group that does not converge is an error naming the loop
-and the time, never a silent delay.
+back-drivable screw) are stepped together and solved (coupled.py): the loop is torn at one
+signal (graph.tear_of; the cart's acceleration for the rig), its end value at t+h is
+guessed, the members step in turn with inputs interpolated towards the guess and towards
+the outputs of the members stepped before them, and the torn signal's end value is
+compared with the guess; the members are rolled back with fmi2SetFMUstate and the guess
+improved by a safeguarded root finder that also handles the jumps stick-slip events cause
+(tear.py). Events inside a coupled step are located and crossed with consistent partners.
+A group without a single-signal tear is iterated on all its internal signals (fixed
+point). A group that does not converge is an error naming the loop and the time, never a
+silent delay.
 """
 
 from __future__ import annotations
@@ -25,11 +30,8 @@ import pandas as pd
 from fmpy.fmi1 import FMICallException
 
 from pendfmu.simulator.component import ComponentFMU, FMUError, unpacked_fmu
-from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
-
-
-class CouplingError(RuntimeError):
-    """A coupled group (algebraic loop) did not converge at a communication point."""
+from pendfmu.simulator.coupled import CoupledSteps, CouplingError
+from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order, tear_of
 
 
 @dataclass
@@ -83,7 +85,7 @@ def feedthrough_of(component_type: str, fmu: str | Path | None = None) -> dict[s
     return result
 
 
-class Master:
+class Master(CoupledSteps):
     """A system of component FMUs connected output to input.
 
     `components` maps instance names to component types (CurrentLoop, Cart, Pendulum);
@@ -105,9 +107,18 @@ class Master:
         self.max_iterations = max_iterations
         self._check_connections()
         self.order = stepping_order(self.types, self.connections)
+        # Coupled groups with a single-signal tear step in the tear's order (see tear_of).
+        self.tears: dict[tuple[str, ...], tuple[str, str]] = {}
+        for k, group in enumerate(self.order):
+            found = tear_of(group, self.connections) if len(group) > 1 else None
+            if found is not None:
+                self.order[k] = found[1]
+                self.tears[tuple(found[1])] = found[0]
         self.loops = algebraic_loops(self.connections,
                                      {n: feedthrough_of(t, self.fmus.get(n)) for n, t in self.types.items()})
         self.iterations = 0  # loop iterations done in the last run, for diagnostics
+        self.jumps = 0  # pieces of coupled steps in the last run whose loop map jumped (tear.py)
+        self.events = 0  # events inside coupled steps crossed by held pieces (coupled.py)
         self._kept_timeline = None  # see _timeline and _drive
         self._kept_drives: dict[tuple[str, str], tuple] = {}
 
@@ -191,8 +202,9 @@ class Master:
         return name, variable
 
     def _run(self, fmus, times, outputs, external, labels) -> pd.DataFrame:
-        self.iterations = 0
-        self._previous_end: dict[tuple[str, str], float] = {}
+        self.iterations = self.jumps = self.events = 0
+        self._previous_end: dict[tuple[str, str], float] = {}  # predicted end values of loop signals
+        self._tear_slope: dict[tuple[str, str], float] = {}  # r' of each tear's last step (tear.py)
         external = {self._split(k): v for k, v in external.items()}
         signals = {(c.source, c.output): 0.0 for c in self.connections}
         t = float(times[0])
@@ -269,10 +281,13 @@ class Master:
         links = [(index[c.source], index[c.target], fmus[c.source].vr[c.output], fmus[c.target].vr[c.input])
                  for c in self.connections]
         groups = [[index[name] for name in group] for group in self.order]
-        recorded, system = run_system([fmus[n].slave for n in names], links, drives, groups, grid, record,
-                                      [(index[n], fmus[n].vr[v]) for n, v in outputs], self.loop_tolerance,
+        tears = [self.tears.get(tuple(group)) for group in self.order]
+        tears = [(index[tear[0]], fmus[tear[0]].vr[tear[1]]) if tear else None for tear in tears]
+        clocks = [fmus[n].vr.get("t_mode") for n in names]  # events inside coupled steps (coupled.py)
+        recorded, system = run_system([fmus[n].slave for n in names], links, drives, groups, tears, clocks, grid,
+                                      record, [(index[n], fmus[n].vr[v]) for n, v in outputs], self.loop_tolerance,
                                       self.max_iterations)
-        self.iterations = int(system.iterations)
+        self.iterations, self.jumps, self.events = int(system.iterations), int(system.jumps), int(system.events)
         if system.fail_kind in (2, 4):
             t = system.fail_time
             where = (f"at t = {t:.9g} s" if system.fail_kind == 4 else
@@ -293,33 +308,39 @@ class Master:
     def _get(self, fmu: ComponentFMU, variable: str) -> float:
         return fmu.get(variable)[0]
 
-    def _set_inputs(self, fmus, external, start, end, t, h, members=None) -> None:
+    def _set_inputs(self, fmus, external, start, end, t, h, members=None, length=None, offset=0.0) -> None:
         """Set every input of the members to its value at t, with the slope over [t, t+h]
-        towards its value at t+h (`end`: outputs of sources already stepped, or guesses)."""
+        towards its value at t+h (`end`: outputs of sources already stepped, or guesses).
+        For a piece of the step (coupled.py): `length` is the piece's, connected inputs go
+        from `start` to `end` over it, and external ones start `offset` after t."""
+        length = h if length is None else length
         for name in members or fmus:
             names, values, slopes = [], [], []
             for (target, variable), signal in external.items():
                 if target == name:
                     value, slope = signal.value_and_slope(t, h)
-                    names.append(variable), values.append(value), slopes.append(slope)
+                    if offset != 0.0:
+                        value = value + slope * offset
+                    names.append(variable), values.append(value), slopes.append(slope if length > 0 else 0.0)
             for c in self.connections:
                 if c.target == name:
                     key = (c.source, c.output)
                     names.append(c.input), values.append(start[key])
-                    slopes.append((end[key] - start[key]) / h if h > 0 else 0.0)
+                    slopes.append((end[key] - start[key]) / length if length > 0 else 0.0)
             if not names:
                 continue
             fmu = fmus[name]
             fmu.set(**dict(zip(names, values)))
-            if h > 0 and any(slopes):
+            if length > 0 and any(slopes):
                 refs = [fmu.vr[n] for n in names]
                 fmu._call(fmu.slave.setRealInputDerivatives, refs, [1] * len(refs), slopes)
 
-    def _solve_point(self, fmus, signals, external, t) -> None:
-        """Make connected signals consistent at one instant (the start, for loops)."""
+    def _solve_point(self, fmus, signals, external, t, links=None) -> None:
+        """Make connected signals (`links`, default all) consistent at one instant: the
+        start, and the end of a coupled step accepted at a jump (_settle)."""
         for _ in range(self.max_iterations):
             change = 0.0
-            for c in self.connections:
+            for c in links or self.connections:
                 value = self._get(fmus[c.source], c.output)
                 change = max(change, abs(value - signals[(c.source, c.output)]) / (1.0 + abs(value)))
                 signals[(c.source, c.output)] = value
@@ -354,33 +375,3 @@ class Master:
         for (source, output) in signals:
             if source in names:
                 signals[(source, output)] = self._get(fmus[source], output)
-
-    def _coupled_step(self, fmus, signals, start, external, group, internal, t, h) -> None:
-        keys = sorted({(c.source, c.output) for c in internal})
-        guesses = dict(signals)
-        for key in keys:
-            guesses[key] = self._previous_end.get(key, start[key])
-        saved = {name: fmus[name].slave.getFMUstate() for name in group}
-        try:
-            for _ in range(self.max_iterations):
-                self.iterations += 1
-                self._set_inputs(fmus, external, start, guesses, t, h, members=group)
-                for name in group:
-                    self._do_step(fmus[name], t, h)
-                ends = {key: self._get(fmus[key[0]], key[1]) for key in keys}
-                change = max(abs(ends[k] - guesses[k]) / (1.0 + abs(ends[k])) for k in keys)
-                if change <= self.loop_tolerance:
-                    break
-                guesses.update(ends)
-                for name in group:
-                    fmus[name].slave.setFMUstate(saved[name])
-            else:
-                raise CouplingError(
-                    f"algebraic loop {self._loop_text()} did not converge over [{t:.9g}, {t + h:.9g}] s "
-                    f"after {self.max_iterations} iterations (last relative change {change:.3g})")
-        finally:
-            for name in group:
-                fmus[name].slave.freeFMUstate(saved[name])
-        # The next interval's first guess: this interval's end, extrapolated linearly.
-        self._previous_end.update({k: 2 * ends[k] - start[k] for k in keys})
-        self._publish(fmus, signals, group)

@@ -20,6 +20,7 @@ import numpy as np
 from pendfmu.fmubuild.compiler import CFLAGS, FMI_HEADERS, FMUS_DIR, BuildError
 
 SOURCE = FMUS_DIR / "runner" / "runner.c"
+HEADERS = [FMUS_DIR / "runner" / "tear.h"]  # included by runner.c
 BUILD_DIR = FMUS_DIR / "build"
 
 
@@ -30,7 +31,8 @@ class Unit(ctypes.Structure):
 
 
 def _library_path() -> Path:
-    digest = hashlib.sha256(SOURCE.read_bytes() + " ".join(CFLAGS).encode()).hexdigest()[:16]
+    text = SOURCE.read_bytes() + b"".join(header.read_bytes() for header in HEADERS)
+    digest = hashlib.sha256(text + " ".join(CFLAGS).encode()).hexdigest()[:16]
     return BUILD_DIR / f"runner-{digest}.so"
 
 
@@ -82,12 +84,16 @@ class System(ctypes.Structure):
                 ("n_drives", ctypes.c_size_t), ("drives", ctypes.POINTER(Drive)),
                 ("n_groups", ctypes.c_size_t), ("group_start", ctypes.POINTER(ctypes.c_int)),
                 ("group_members", ctypes.POINTER(ctypes.c_int)),
+                ("tear_unit", ctypes.POINTER(ctypes.c_int)), ("tear_vr", ctypes.POINTER(ctypes.c_uint)),
+                ("event_vr", ctypes.POINTER(ctypes.c_long)),
                 ("tolerance", ctypes.c_double), ("max_iterations", ctypes.c_int),
                 ("n_points", ctypes.c_size_t), ("times", ctypes.POINTER(ctypes.c_double)),
                 ("record", ctypes.POINTER(ctypes.c_ubyte)),
                 ("n_outputs", ctypes.c_size_t), ("output_unit", ctypes.POINTER(ctypes.c_int)),
                 ("output_vr", ctypes.POINTER(ctypes.c_uint)), ("outputs", ctypes.POINTER(ctypes.c_double)),
-                ("iterations", ctypes.c_long), ("fail_time", ctypes.c_double), ("fail_kind", ctypes.c_int),
+                ("iterations", ctypes.c_long), ("jumps", ctypes.c_long), ("events", ctypes.c_long),
+                ("fail_time", ctypes.c_double),
+                ("fail_kind", ctypes.c_int),
                 ("fail_unit", ctypes.c_int), ("last_change", ctypes.c_double)]
 
 
@@ -102,9 +108,12 @@ def _array(kind, values):
 
 
 def run_system(slaves: list, links: list[tuple[int, int, int, int]], drives: list[tuple[int, int, np.ndarray,
-               np.ndarray]], groups: list[list[int]], times: np.ndarray, record: np.ndarray,
-               outputs: list[tuple[int, int]], tolerance: float, max_iterations: int) -> tuple[np.ndarray, System]:
-    """Run the master's loop natively; returns (recorded outputs, the System with diagnostics)."""
+               np.ndarray]], groups: list[list[int]], tears: list[tuple[int, int] | None], clocks: list[int | None],
+               times: np.ndarray, record: np.ndarray, outputs: list[tuple[int, int]], tolerance: float,
+               max_iterations: int) -> tuple[np.ndarray, System]:
+    """Run the master's loop natively; returns (recorded outputs, the System with diagnostics).
+    `tears` gives each group's tear as (unit, value reference) of the torn output, or None;
+    `clocks` each unit's value reference of t_mode (coupled.py), or None."""
     times = np.ascontiguousarray(times, dtype=float)
     record = np.ascontiguousarray(record, dtype=np.uint8)
     result = np.empty((int(record.sum()), len(outputs)))
@@ -116,10 +125,13 @@ def run_system(slaves: list, links: list[tuple[int, int, int, int]], drives: lis
         len(drives), _array(Drive, [Drive(unit, vr, _doubles(keep[2 * j]), _doubles(keep[2 * j + 1]))
                                     for j, (unit, vr, _, _) in enumerate(drives)]),
         len(groups), _array(ctypes.c_int, [int(x) for x in starts]),
-        _array(ctypes.c_int, [m for g in groups for m in g]), tolerance, max_iterations,
+        _array(ctypes.c_int, [m for g in groups for m in g]),
+        _array(ctypes.c_int, [tear[0] if tear else -1 for tear in tears]),
+        _array(ctypes.c_uint, [tear[1] if tear else 0 for tear in tears]),
+        _array(ctypes.c_long, [-1 if vr is None else vr for vr in clocks]), tolerance, max_iterations,
         len(times), _doubles(times), record.ctypes.data_as(ctypes.POINTER(ctypes.c_ubyte)),
         len(outputs), _array(ctypes.c_int, [u for u, _ in outputs]), _array(ctypes.c_uint, [v for _, v in outputs]),
-        _doubles(result), 0, 0.0, 0, -1, 0.0)
+        _doubles(result), 0, 0, 0, 0.0, 0, -1, 0.0)
     library().pendfmu_run_system(ctypes.byref(system))
     return result, system
 
