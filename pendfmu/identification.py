@@ -196,7 +196,10 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
         found = physical(free_parameters, outcome.u)
         fitted = {p.name: float(v) for p, v in zip(free_parameters, found) if p.experiment is None}
         if stage in JOINTS:
-            notes += _bound_stiction(stage, residuals, outcome.u, estimates, fitted, assessed.values)
+            try:
+                notes += _bound_stiction(stage, residuals, outcome.u, estimates, fitted, assessed.values)
+            except FMUError as error:  # the result is written regardless
+                notes.append(f"the stiction's set could not be checked: the simulation at the result fails ({error})")
         final_values = [fitted.get(p.name, v) if p.experiment is None else v for p, v in zip(free_parameters, found)]
         try:
             fits = _experiment_fits(residuals, unit_of(free_parameters, final_values))

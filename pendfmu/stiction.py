@@ -75,8 +75,8 @@ def evidence(simulations: Iterable[Mapping[str, np.ndarray]], joint: Joint) -> E
 
 
 def bounded_set(found: Evidence, replicates: Iterable[Evidence], coulomb: float) -> tuple[float, float] | None:
-    """The set of thresholds the recordings allow (None when they pin it, or allow
-    nothing consistent): the estimate's set widened by the replicates' sets. Below the
+    """The set of thresholds the recordings allow (None when they pin it): the estimate's
+    set widened by the replicates' sets. Below the
     Coulomb friction stiction has no effect (the threshold is max(F_S, F_K)), so the set
     starts there at the least."""
     if found.crossings:
@@ -85,6 +85,7 @@ def bounded_set(found: Evidence, replicates: Iterable[Evidence], coulomb: float)
     lows = [found.low] + [r.low for r in replicates if not r.crossings]
     highs = [found.high] + [r.high for r in replicates if not r.crossings]
     low, high = max(min(lows), coulomb), max(highs)
-    if not high > low:
-        return None
-    return low, high
+    # The forces are read at the samples, not at the instants of sticking and reversing: a
+    # force held may then exceed one reversed at by a sample's change. The threshold is
+    # between them either way.
+    return (low, high) if high >= low else (high, low)

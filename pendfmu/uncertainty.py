@@ -21,6 +21,7 @@ import numpy as np
 from pendfmu.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
 from pendfmu.result import Estimate, estimate_uncertainty, unknown_uncertainty
 from pendfmu.residuals import Residuals, physical
+from pendfmu.stiction import JOINTS
 
 METHODS = ("bootstrap", "jacobian")
 MIN_REPLICATES = 8  # fewer successful refits than this: no bootstrap interval
@@ -57,6 +58,7 @@ def assess_uncertainty(method: str, residuals: Residuals, outcome, replicates: i
 
 
 FLAT = 1e-8  # a Jacobian column this small against the largest: the recordings do not depend on it
+STICTION = {joint.stiction for joint in JOINTS.values()}
 
 
 def undetermined(free, u: np.ndarray, jacobian: np.ndarray, estimates: dict[str, Estimate]) -> list[str]:
@@ -68,8 +70,8 @@ def undetermined(free, u: np.ndarray, jacobian: np.ndarray, estimates: dict[str,
     norms = np.linalg.norm(jacobian, axis=0)
     notes = []
     for k, p in enumerate(free):
-        if norms[k] > FLAT * max(float(norms.max()), 1e-300):
-            continue
+        if norms[k] > FLAT * max(float(norms.max()), 1e-300) or p.name in STICTION:
+            continue  # stiction's set is stiction.py's to find, from where the joints stick
         ends = []
         for end in (0.0, 1.0):
             corner = np.array(u, dtype=float)
