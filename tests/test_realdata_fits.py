@@ -1,0 +1,88 @@
+"""Issue 12 on real data: every fit ends with a result file, and a parameter reported as
+a set reports the same set whatever the seed of the global search.
+
+Each case is the command a user types (``realdata_cases.py``: recordings written as CSV
+and sidecar into a temporary folder, ``pendfmu fit STAGE ... --seed S``), run in-process
+through ``pendfmu.cli.main``. ``scripts/realdata_fits.py`` runs the same cases for seeds
+0-4 and prints the figures; this file keeps the assertions within about a minute and a
+half on two cores:
+
+* one seed per data set, with ``--replicates 8`` (the fewest the CLI allows) instead of
+  24: the bootstrap's replicate count changes the interval's width, not whether a file is
+  written or whether an interval may leave the physical range;
+* MultiArm on 3 of the script's 8 decay windows (25 s instead of 5 minutes);
+* two seeds where a set is reported: the carriage (its stiction sits at the Coulomb
+  bound) and the Furuta pendulum (its stiction is only bounded by a free decay).
+
+Skipped when the real data are absent (``realdata.available``).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+import realdata_cases as cases
+
+REPLICATES = ("--replicates", "8")
+TESTED = {name: case for name, case in cases.CASES.items() if name != "MultiArm-Pendulum"}
+TESTED["MultiArm-Pendulum"] = cases.multiarm_case(3)
+
+
+@pytest.fixture(scope="module")
+def fitted(tmp_path_factory):
+    """(data set, seed) -> Run, each fit run once for the module."""
+    runs: dict[tuple[str, int], cases.Run] = {}
+
+    def get(name: str, seed: int) -> cases.Run:
+        case = TESTED[name]
+        if not case.available:
+            pytest.skip(f"real data absent: {', '.join(map(str, case.sources))}")
+        if (name, seed) not in runs:
+            folder = tmp_path_factory.mktemp(name)
+            runs[name, seed] = cases.run_fit(case.prepare(folder), folder / "result.json", seed, name, REPLICATES)
+        return runs[name, seed]
+
+    return get
+
+
+@pytest.mark.parametrize("name", list(TESTED))
+def test_fit_writes_its_result_with_intervals_in_range(fitted, name):
+    """Exit code 0 (or 3, warnings under --strict), never 1 (an internal failure) or 2,
+    the result file written, and every interval inside its parameter's physical range
+    (eta <= 1, frictions >= 0) and containing its own value."""
+    run = fitted(name, 0)
+    print(f"\n{name}: exit {run.exit_code} in {run.seconds:.1f} s")
+    assert run.exit_code in (0, 3), run.stderr
+    assert run.written, run.stderr
+    assert cases.interval_problems(run.document) == []
+
+
+def assert_same_sets(runs: list[cases.Run]) -> None:
+    agreement = cases.set_agreement(runs)
+    for label, (_, sets) in agreement.items():
+        print(f"\n{runs[0].case} {label}: " + "; ".join(f"seed {r.seed}: {s}" for r, s in zip(runs, sets)))
+    assert all(run.written for run in runs)
+    assert agreement, "no parameter reported as a set: the case no longer tests what it should"
+    assert {label for label, (same, _) in agreement.items() if not same} == set()
+
+
+def test_bounded_stiction_is_the_same_set_for_two_seeds(fitted):
+    """The Furuta free decay only bounds T_Sp (method "bounded"): the same set for seeds
+    0 and 1, by realdata_cases.same_set (method, value and ends within 1e-3 relative)."""
+    runs = [fitted("rotary-inverted-pendulum", seed) for seed in (0, 1)]
+    assert runs[0].document["interval_method"]["T_Sp"] == "bounded"
+    assert_same_sets(runs)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "bootstrap refits stop at their evaluation budget: from the carriage's optimum, where "
+    "F_Sc sits at its lower bound (F_Sc/F_Kc - 1 is 1.4e-8 after seed 0 and 1e-10 after seed 1), "
+    "least_squares in bootstrap.refit ends in different places (costs 1.94e6 against 4.55e6 for "
+    "the same replicate, the second at nfev = 100 = REFIT_BUDGET * 5), so F_Sc's reported set "
+    "(flagged at its lower bound) and every other interval depend on the seed"))
+def test_stiction_at_its_bound_is_the_same_set_for_two_seeds(fitted):
+    """The carriage's F_Sc ends at its lower bound, equal to F_Kc (flagged: no stiction
+    beyond Coulomb friction): what is reported for it must not depend on the seed."""
+    runs = [fitted("friction-identification", seed) for seed in (0, 1)]
+    assert any("at its lower bound" in flag for flag in runs[0].document["flags"].get("F_Sc", []))
+    assert_same_sets(runs)
