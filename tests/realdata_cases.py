@@ -191,7 +191,8 @@ def reported_set(document: dict, label: str) -> tuple:
     return (method, value, -math.inf if low is None else low, math.inf if high is None else high)
 
 
-SET_TOLERANCE = 1e-3
+SET_TOLERANCE = 1e-2  # same set: every end within 1 % (the verdict)
+PRINTED_PRECISION = 1e-3  # identical as printed: four significant digits (information)
 
 
 def same_number(a: float, b: float, tolerance: float = SET_TOLERANCE) -> bool:
@@ -202,11 +203,18 @@ def same_number(a: float, b: float, tolerance: float = SET_TOLERANCE) -> bool:
 
 def same_set(a: tuple, b: tuple, tolerance: float = SET_TOLERANCE) -> bool:
     """Two reported sets are the same when they are given by the same method and their
-    value and both ends agree to `tolerance` relative (infinite ends must both be
-    infinite). 1e-3: the console and the flags print sets to four significant digits,
-    so a larger difference is one a user sees, and answers "which is it?" differently;
-    a smaller one is the local search's convergence (it stops at 1e-10 in the unit box,
-    and the ends are forces read off simulations at the other estimates)."""
+    value and both ends agree within `tolerance` relative (infinite ends must both be
+    infinite).
+
+    Why 1 %: a set's ends are forces or torques read off simulations at the other
+    estimates (the least stiction demanded is the Coulomb estimate itself), so they move
+    with those estimates, and the seeds reproduce the point estimates only to about 0.1 %
+    on these data (the local search stops somewhere in the long valley of viscous
+    against Coulomb friction, correlated -0.96 to -0.98: the Furuta fit's T_Kp spreads
+    0.11 % over seeds 0-4 at equal cost to 6 digits). 1 % is ten times that: a larger
+    difference is not the local search's convergence but a different answer, and it is
+    one a user sees in the four significant digits the flags print. Differences between
+    that precision (1e-3) and 1 % are reported separately (:data:`PRINTED_PRECISION`)."""
     return a[0] == b[0] and all(same_number(x, y, tolerance) for x, y in zip(a[1:], b[1:]))
 
 
@@ -220,13 +228,13 @@ def set_labels(runs: Sequence[Run]) -> list[str]:
     return labels
 
 
-def set_agreement(runs: Sequence[Run]) -> dict[str, tuple[bool, list[tuple]]]:
+def set_agreement(runs: Sequence[Run], tolerance: float = SET_TOLERANCE) -> dict[str, tuple[bool, list[tuple]]]:
     """label -> (the same set for every seed that wrote a result, the sets by seed)."""
     written = [r for r in runs if r.written]
     result = {}
     for label in set_labels(written):
         sets = [reported_set(r.document, label) for r in written]
-        result[label] = (all(same_set(sets[0], s) for s in sets[1:]), sets)
+        result[label] = (all(same_set(sets[0], s, tolerance) for s in sets[1:]), sets)
     return result
 
 

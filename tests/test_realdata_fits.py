@@ -12,7 +12,8 @@ half on two cores:
   written or whether an interval may leave the physical range;
 * MultiArm on 3 of the script's 8 decay windows (25 s instead of 5 minutes);
 * two seeds where a set is reported: the carriage (its stiction sits at the Coulomb
-  bound) and the Furuta pendulum (its stiction is only bounded by a free decay).
+  bound) and the Furuta pendulum (its stiction is only bounded by a free decay); and the
+  carriage's seed 2, whose global search ends in another basin.
 
 Skipped when the real data are absent (``realdata.available``).
 """
@@ -68,13 +69,13 @@ def assert_same_sets(runs: list[cases.Run]) -> None:
 
 def test_bounded_stiction_is_the_same_set_for_two_seeds(fitted):
     """The Furuta free decay only bounds T_Sp (method "bounded"): the same set for seeds
-    0 and 1, by realdata_cases.same_set (method, value and ends within 1e-3 relative)."""
+    0 and 1, by realdata_cases.same_set (method, value and ends within 1 % relative)."""
     runs = [fitted("rotary-inverted-pendulum", seed) for seed in (0, 1)]
     assert runs[0].document["interval_method"]["T_Sp"] == "bounded"
     assert_same_sets(runs)
 
 
-@pytest.mark.xfail(strict=True, reason=(
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
     "bootstrap refits stop at their evaluation budget: from the carriage's optimum, where "
     "F_Sc sits at its lower bound (F_Sc/F_Kc - 1 is 1.4e-8 after seed 0 and 1e-10 after seed 1), "
     "least_squares in bootstrap.refit ends in different places (costs 1.94e6 against 4.55e6 for "
@@ -86,3 +87,21 @@ def test_stiction_at_its_bound_is_the_same_set_for_two_seeds(fitted):
     runs = [fitted("friction-identification", seed) for seed in (0, 1)]
     assert any("at its lower bound" in flag for flag in runs[0].document["flags"].get("F_Sc", []))
     assert_same_sets(runs)
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+    "the global search misses the carriage's best basin with seed 2: differential evolution's "
+    "25 generations of 32 candidates end at coarse cost 7.96e8 (seed 0: 1.91e8; the best optimum's coarse "
+    "cost is 9.2e6), and the local search then stops in a local minimum whose cost is 57 times the "
+    "best (2.605e8 against 4.609e6): F_Sc 102.2 N [100.9, 103.5] unflagged, k_fwc 109.8 N s/m, where "
+    "seeds 0, 1, 3, 4 give F_Sc at its bound F_Kc = 33.59 N, k_fwc 64.18 N s/m"))
+def test_the_seed_does_not_change_the_carriage_optimum(fitted):
+    """Seeds 0 and 2 end at the same optimum: the same cost within 1e-6 and the same
+    values within 1 % (the rule of realdata_cases.same_set). Without this no set or
+    point estimate can be the same for every seed."""
+    first, other = (fitted("friction-identification", seed) for seed in (0, 2))
+    print(f"\ncarriage: cost {first.document['fit']['cost']:.6g} (seed 0), {other.document['fit']['cost']:.6g} (seed 2)")
+    assert other.document["fit"]["cost"] == pytest.approx(first.document["fit"]["cost"], rel=1e-6)
+    for label in first.document["interval_method"]:
+        assert other.document["parameters"][label] == pytest.approx(first.document["parameters"][label],
+                                                                     rel=cases.SET_TOLERANCE), label
