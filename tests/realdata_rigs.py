@@ -190,10 +190,10 @@ def furuta_recording(path: Path = FURUTA_TXT) -> Recording:
 
     Angle: phi = pi + counts * 2 pi / 4000 (0 = hanging in the file, pi in pendfmu; the
     true encoder scale, not the printed one). Time: the nominal 1 ms per line.
-    Window: from the first turning point after the hand release (the pendulum is held at
-    about -136 deg for the first 0.24 s and the first half swing loses four times what
-    the next ones lose, so the hand was still on it) to the last turning point in the
-    record, so that the fit starts at rest where the stage estimates the angle, and the
+    Window: from the first turning point after the hand release (the hand takes the
+    pendulum from -90 to about -136 deg in the first 0.25 s and lets go there; the first
+    half swing after it loses four times what the next ones lose, so the hand was not yet
+    clear) to the last turning point in the record, so that the fit starts at rest where the stage estimates the angle, and the
     rate at the first sample (the turning point falls between samples) is the known
     initial state w, from the local cubic fit."""
     counts = read_furuta_counts(path)
@@ -211,9 +211,10 @@ def furuta_recording(path: Path = FURUTA_TXT) -> Recording:
 def furuta_parameters() -> dict[str, float]:
     """The published rod. J_p is fitted as well (with bounds from a point mass at the
     centre of mass, m l^2, the least inertia any body of that mass and l has, to twice
-    the rod's): the rod predicts a swing ~5 % slower than recorded, the authors
-    themselves had to add 80 g and scale the gravity torque to match their model, and the
-    1 ms sample period is nominal; J_p absorbs all three."""
+    the rod's): the rod predicts a swing ~6 % slower than recorded (the fit's J_p is
+    0.89 times the rod's), the authors themselves had to add 80 g and scale the gravity
+    torque to match their model, and the 1 ms sample period is nominal; J_p absorbs all
+    three."""
     return dict(FURUTA_ROD)
 
 
