@@ -57,9 +57,9 @@ def test_fit_writes_its_result_with_intervals_in_range(fitted, name, method):
     """Exit code 0 (or 3, warnings under --strict), never 1 (an internal failure) or 2,
     the result file written, and every interval inside its parameter's physical range
     (eta <= 1, frictions >= 0) and containing its own value. With the default bootstrap
-    intervals and with the fast Jacobian ones (where the issue's overflow and the eta
-    interval past 1 came from: the carriage's F_Sc at its bound gets [3.4e-46, 3.3e48]
-    there with seed 0)."""
+    intervals and with the fast Jacobian ones (the default when the issue's overflow and
+    eta interval past 1 were found; the carriage's F_Sc at its bound gets [3.4e-46,
+    3.3e48] N there with seed 0)."""
     run = fitted(name, 0, method)
     print(f"\n{name} ({method}): exit {run.exit_code} in {run.seconds:.1f} s")
     assert run.exit_code in (0, 3), run.stderr
