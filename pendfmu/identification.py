@@ -97,6 +97,12 @@ def _free_parameters(stage: str, experiments: list[Experiment], free: Sequence[s
         if name not in component.parameters and name not in {"phi0"}:
             raise ParameterFileError(f"stage {stage} fits parameters of {spec.component}; {name!r} is not one "
                                      f"(valid: {', '.join(n for n in component.parameters if n != 'solver_step')})")
+    estimated = {name for experiment in experiments for name in experiment.estimated}
+    valid = [n for n in names if n not in fix] + sorted(estimated - set(fix))
+    for name in bounds:
+        if name not in valid:
+            raise ParameterFileError(f"bounds for {name!r}, which this fit does not estimate; its free "
+                                     f"parameters: {', '.join(valid) or 'none'}")
     result = []
     for name in names:
         if name in fix:
@@ -120,7 +126,8 @@ def _free_parameters(stage: str, experiments: list[Experiment], free: Sequence[s
         result.append(FreeParameter(name, float(low), float(high), log, relative_to=relative_to))
     for experiment in experiments:
         for name, (_guess, low, high) in experiment.estimated.items():
-            if name not in fix:
+            if name not in fix:  # an initial state's box: +-2 sensor steps, or what --bounds gives
+                low, high = bounds.get(name, (low, high))
                 result.append(FreeParameter(name, low, high, False, experiment.name))
     return result
 

@@ -190,30 +190,91 @@ def local_search(residuals: Residuals, u0: np.ndarray) -> tuple[np.ndarray, np.n
     return result.x, result.jac, result.fun, note
 
 
+BOUND_SNAP = 1e-6  # a unit-box coordinate this close to a bound is put on it (result.at_bound agrees)
+
+
 def optimize(residuals: Residuals, coarse: Residuals | None, u0: np.ndarray, seed: int,
              options: GlobalOptions, progress: Callable[[str], None] | None = None,
              cache: dict[bytes, float] | None = None) -> Outcome:
+    """The global search, then the local refinement from its best candidate and from the
+    start the user gave; the lower of the two optima is kept.
+
+    Why both: a global search of a few hundred candidates on a rugged cost can settle in a
+    poor basin for one seed and not for another (measured on the real servo carriage: the
+    cost 57 times the optimum's for one seed of five, with a confident, wrong F_Sc); the
+    start the user gave is the other independent guess, and a second local refinement
+    costs little against the global search. The same data then give one answer."""
     start = time.perf_counter()
     nfev = failures = 0
     global_best = None
     messages = []
+    starts = [u0]
     if options.enabled and coarse is not None and len(u0):
         u_global, global_best, nfev, failures = global_search(coarse, len(u0), seed, options, progress, cache,
                                                                 messages)
-        # Keep the start the user gave if the global search found nothing better.
-        if coarse.sum_of_squares(u_global) <= coarse.sum_of_squares(u0):
-            u0 = u_global
-        else:
-            messages.append("the global search found nothing better than the starting values")
+        starts = [u_global] + ([u0] if not np.allclose(u_global, u0, rtol=0, atol=BOUND_SNAP) else [])
     if progress:
         progress("local refinement (least squares)")
     if len(u0):
-        u, jacobian, residual, note = local_search(residuals, u0)
-        if note:
-            messages.append(note)
+        u, jacobian, residual = _best_local(residuals, starts, messages)
+        u, jacobian, residual = snap_to_bounds(residuals, u, jacobian, residual)
     else:
         u, residual = u0, residuals(u0)
         jacobian = np.zeros((len(residual), 0))
     # least_squares does not count the evaluations of its finite-difference Jacobian.
     return Outcome(u, jacobian, residual, nfev + residuals.evaluations, failures + residuals.failures,
                    time.perf_counter() - start, global_best, messages)
+
+
+def _best_local(residuals: Residuals, starts: list[np.ndarray], messages: list[str]):
+    """The local refinement from each start; the lowest optimum, and a note when they differ."""
+    found = []
+    for u0 in starts:
+        u, jacobian, residual, note = local_search(residuals, u0)
+        found.append((float(residual @ residual), u, jacobian, residual, note))
+    best = min(range(len(found)), key=lambda k: found[k][0])
+    cost, u, jacobian, residual, note = found[best]
+    if note:
+        messages.append(note)
+    if len(found) > 1:
+        other = found[1 - best][0]
+        if best == 1:
+            messages.append(f"the local refinement from the starting values ended lower than from the global "
+                            f"search's best (cost {cost:.6g} against {other:.6g}): the cost has several minima; "
+                            f"the lower is kept")
+        elif other > cost * (1 + 1e-6) and not np.allclose(found[1][1], u, atol=1e-4):
+            messages.append(f"the local refinement from the starting values ended in another minimum (cost "
+                            f"{other:.6g} against {cost:.6g}): the cost has several minima; the lower is kept")
+    return u, jacobian, residual
+
+
+BOUND_ZONE = 1e-4  # ... and one this close, if the bound fits at least as well
+
+
+def snap_to_bounds(residuals: Residuals, u: np.ndarray, jacobian: np.ndarray, residual: np.ndarray):
+    """Put coordinates that end next to a bound on it, with the residual and the Jacobian
+    there: those within BOUND_SNAP always, those within BOUND_ZONE if the cost at the
+    bound is no higher. A parameter whose optimum is the bound is then reported at the
+    same point whatever path the search took: on the real carriage, stiction ended at
+    0, 1e-10, 1e-8 or 4e-6 from its bound depending on the seed, and the bootstrap's
+    refits from those points gave intervals twice as wide for one of them."""
+    cost = float(residual @ residual)
+    for zone in (BOUND_ZONE, BOUND_SNAP):
+        snapped = np.where(u < zone, 0.0, np.where(u > 1.0 - zone, 1.0, u))
+        if np.array_equal(snapped, u):
+            continue
+        moved = residuals(snapped)
+        if zone == BOUND_SNAP or float(moved @ moved) <= cost * (1 + 1e-12):
+            return snapped, forward_jacobian(residuals, snapped, moved), moved
+    return u, jacobian, residual
+
+
+def forward_jacobian(residuals: Residuals, u: np.ndarray, residual: np.ndarray, step: float = 1e-7) -> np.ndarray:
+    """d residual / d u by forward differences, stepping into the box at a bound."""
+    jacobian = np.empty((len(residual), len(u)))
+    for k in range(len(u)):
+        h = -step if u[k] + step > 1.0 else step
+        moved = np.array(u, dtype=float)
+        moved[k] += h
+        jacobian[:, k] = (residuals(moved) - residual) / h
+    return jacobian

@@ -386,8 +386,9 @@ def fit_decay(recordings: list[Recording], free: tuple[str, ...] = ()) -> FitRes
     The intervals are the fast Jacobian ones: these tests hold the fit to the energy
     balance, not its intervals, and a bootstrap of 11 free parameters (phi0 per window)
     over 8 windows costs minutes."""
-    bounds = {"k_fwp": (1e-6, 1e-2), "T_Kp": (1e-7, 1e-2),
-              "J_p": (0.9 * PUBLISHED_PENDULUM["J_p"], 1.1 * PUBLISHED_PENDULUM["J_p"])}
+    bounds = {"k_fwp": (1e-6, 1e-2), "T_Kp": (1e-7, 1e-2)}
+    if "J_p" in free:  # bounds are only for what is fitted (a name not fitted is an error)
+        bounds["J_p"] = (0.9 * PUBLISHED_PENDULUM["J_p"], 1.1 * PUBLISHED_PENDULUM["J_p"])
     return fit("pendulum", recordings, PUBLISHED_PENDULUM, free=list(free), bounds=bounds,
                global_search=GlobalOptions(enabled=False), progress=False, uncertainty="jacobian")
 

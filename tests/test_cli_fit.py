@@ -63,3 +63,39 @@ def test_a_model_that_misses_part_of_the_recording_is_reported(tmp_path):
     assert any("times the sensor noise" in warning for warning in without.warnings)
     with_ripple = fit_current([tmp_path / "rippled.csv"], seed=1, progress=False)
     assert not any("times the sensor noise" in warning for warning in with_ripple.warnings)
+
+
+def test_bounds_for_a_parameter_not_fitted_is_exit_2(current_recording, tmp_path, capsys):
+    """A typo or a fixed name in --bounds was silently ignored."""
+    code = main(["fit", "current", str(current_recording), "--bounds", "T_I=1e-4:1e-3", "--out",
+                 str(tmp_path / "o.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and "'T_I'" in err and "T_i" in err
+
+
+def test_repeated_options_accumulate(current_recording, tmp_path):
+    """A second --bounds replaced the first; now both apply (and --fix likewise)."""
+    out = tmp_path / "o.json"
+    assert main(["fit", "current", str(current_recording), "--bounds", "T_i=4e-4:6e-4", "--bounds",
+                 "dIdt_max=1900:2100", "--no-global", "--uncertainty", "jacobian", "--out", str(out)]) == 0
+    fitted = json.loads(out.read_text())["parameters"]
+    assert 4e-4 <= fitted["T_i"] <= 6e-4 and 1900 <= fitted["dIdt_max"] <= 2100
+
+
+def test_an_initial_states_box_follows_bounds(tmp_path):
+    """--bounds phi0=LOW:HIGH sets the release angle's box (it was fixed at +-2 encoder steps
+    around the first reading, while the at-bound flag told the user to use --bounds)."""
+    import math
+
+    from pendfmu.identification import fit
+
+    experiment = Experiment("swing", "pendulum", 2.0, 2e-4, ("phi",), lambda t: 0.0,
+                            truth_overrides={"phi0": math.pi + 0.5, "w0": 0.0}, known_initial=("w",))
+    write_experiments(tmp_path, {}, seed=2, experiments=[experiment])
+    from pendfmu.optimizer import GlobalOptions
+
+    result = fit("pendulum", [tmp_path / "swing.csv"], {}, bounds={"phi0": (3.5, 3.7)}, fix=["T_Sp"],
+                 global_search=GlobalOptions(enabled=False), progress=False, uncertainty="jacobian")
+    estimate = result.estimates["phi0[swing]"]
+    assert (estimate.low, estimate.high) == (3.5, 3.7)
+    assert abs(estimate.value - (math.pi + 0.5)) < 2 * math.pi / 1024  # within an encoder step of the truth

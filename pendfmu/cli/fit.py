@@ -23,9 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="result: parameters, stderr, ci95, fit statistics (JSON)")
     parser.add_argument("--report", help="write an HTML report with figures into this folder")
     parser.add_argument("--seed", type=int, default=0, help="seed of the global search (default 0)")
-    parser.add_argument("--free", nargs="+", default=[], metavar="NAME", help="fit these too")
-    parser.add_argument("--fix", nargs="+", default=[], metavar="NAME", help="keep these at their given values")
-    parser.add_argument("--bounds", nargs="+", default=[], metavar="NAME=LOW:HIGH", help="search bounds")
+    parser.add_argument("--free", nargs="+", action="extend", default=[], metavar="NAME", help="fit these too")
+    parser.add_argument("--fix", nargs="+", action="extend", default=[], metavar="NAME", help="keep these at their given values")
+    parser.add_argument("--bounds", nargs="+", action="extend", default=[], metavar="NAME=LOW:HIGH", help="search bounds")
     parser.add_argument("--drive", choices=("I_c", "I", "a"), help="the recorded signal that drives the stage")
     parser.add_argument("--cost", choices=("plain", "quantized"), default="plain",
                         help="residuals: plain least squares, or zero inside each reading's quantization step")
