@@ -100,6 +100,8 @@ def identify(out: Path) -> Path:
     result.write_json(out / "identified.json")
     result.write_report(out / "report")
     result.export(out / "exported")
+    for warning in result.warnings:
+        print(f"warning: {warning}")
     held = write_truth_table(result, out / "identified-vs-truth.csv")
     print(f"demo: {sum(held.values())} of {len(held)} intervals hold the demo's truth"
           + ("" if all(held.values()) else f"; missed: {', '.join(n for n, ok in held.items() if not ok)}"))
