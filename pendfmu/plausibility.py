@@ -104,7 +104,7 @@ def _against_resolution(experiment: Experiment, name: str, values: np.ndarray, r
     one count. A smallest change of 1000 counts is a signal in mm against a resolution in
     m; 57.3 counts an angle in degrees; a fraction of a count a wrong resolution."""
     steps = np.abs(np.diff(values))
-    steps = steps[steps > 1e-9 * resolution]
+    steps = steps[steps > 1e-3 * resolution]  # below: the same reading, written with rounding errors
     if len(steps) < 3:
         return []
     smallest = float(np.min(steps)) / resolution
