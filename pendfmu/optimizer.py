@@ -242,7 +242,7 @@ def _best_local(residuals: Residuals, starts: list[np.ndarray], messages: list[s
             messages.append(f"the local refinement from the starting values ended lower than from the global "
                             f"search's best (cost {cost:.6g} against {other:.6g}): the cost has several minima; "
                             f"the lower is kept")
-        elif other > cost * (1 + 1e-6) and not np.allclose(found[1][1], u, atol=1e-4):
+        elif other > cost * (1 + 1e-3) and not np.allclose(found[1][1], u, atol=1e-3):
             messages.append(f"the local refinement from the starting values ended in another minimum (cost "
                             f"{other:.6g} against {cost:.6g}): the cost has several minima; the lower is kept")
     return u, jacobian, residual
