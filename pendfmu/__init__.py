@@ -13,11 +13,11 @@ def __getattr__(name: str):
     """The fitting API at the top level, imported on first use (keeps `import pendfmu`
     light for the command line and the FMU build)."""
     if name in ("fit", "fit_all", "fit_current"):
-        from pendfmu import identification
+        from pendfmu.fitting import identification
 
         return getattr(identification, name)
     if name == "FitResult":
-        from pendfmu.result import FitResult
+        from pendfmu.fitting.result import FitResult
 
         return FitResult
     raise AttributeError(f"module 'pendfmu' has no attribute {name!r}")

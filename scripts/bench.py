@@ -183,8 +183,8 @@ def naive_current_fit(path: Path, start: dict[str, float]) -> tuple[float, int, 
 
 
 def fitting(quick: bool) -> None:
-    from pendfmu.identification import fit, fit_all
-    from pendfmu.optimizer import GlobalOptions
+    from pendfmu.fitting.identification import fit, fit_all
+    from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.virtual_rig import write_experiments
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -213,11 +213,11 @@ def dask_scaling(stage: str = "pendulum") -> None:
     except ImportError:
         print("dask: not installed (pip install 'pendfmu[distributed]')")
         return
-    from pendfmu.experiment import STAGES, make_experiment
-    from pendfmu.identification import _free_parameters, rig_defaults
-    from pendfmu.optimizer import GlobalOptions, global_search
+    from pendfmu.fitting.experiment import STAGES, make_experiment
+    from pendfmu.fitting.identification import _free_parameters, rig_defaults
+    from pendfmu.fitting.optimizer import GlobalOptions, global_search
     from pendfmu.recording import read_recording
-    from pendfmu.residuals import Residuals
+    from pendfmu.fitting.residuals import Residuals
     from pendfmu.virtual_rig import standard_experiments, write_experiments
 
     chosen = [e for e in standard_experiments() if e.name.startswith(f"{stage}-")][:1]
@@ -235,7 +235,7 @@ def dask_scaling(stage: str = "pendulum") -> None:
                               dashboard_address=None) as cluster, Client(cluster.scheduler_address) as client:
                 # Workers that have imported pendfmu, as on a cluster that served a fit before: the
                 # imports happen once per worker process and, done in parallel, would flatter 2 workers.
-                client.run(importlib.import_module, "pendfmu.residuals")
+                client.run(importlib.import_module, "pendfmu.fitting.residuals")
                 options = GlobalOptions(scheduler=cluster.scheduler_address)
                 times[workers], (_, _, nfev, _) = best_of(timed, global_search, residuals, len(free), 3, options)
     print(f"dask, global search of a {stage} fit on {chosen[0].name} ({nfev} simulations), best of {REPEATS}: "

@@ -14,8 +14,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from pendfmu.identification import fit_all
-from pendfmu.optimizer import GlobalOptions
+from pendfmu.fitting.identification import fit_all
+from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.virtual_rig import write_experiments
 
 

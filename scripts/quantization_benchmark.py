@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.identification import fit
+from pendfmu.fitting.identification import fit
 from pendfmu.virtual_rig import reference_truth, standard_experiments, write_experiments
 
 TRUTH = {"k_fwp": 0.9e-3, "T_Kp": 1.8e-3, "T_Sp": 3.5e-3}

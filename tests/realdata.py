@@ -37,10 +37,10 @@ from scipy.optimize import least_squares, minimize
 from scipy.signal import medfilt, savgol_filter
 from scipy.stats import trim_mean
 
-from pendfmu.identification import fit
-from pendfmu.optimizer import GlobalOptions
+from pendfmu.fitting.identification import fit
+from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.recording import Recording, RecordingError, SignalInfo, quantize
-from pendfmu.result import FitResult
+from pendfmu.fitting.result import FitResult
 
 REALDATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "realdata"
 

@@ -19,14 +19,14 @@ import numpy as np
 import pytest
 from scipy.stats import t as student_t
 
-from pendfmu.bootstrap import Replicates, bootstrap_estimates, synthetic_experiment
-from pendfmu.experiment import make_experiment
-from pendfmu.identification import fit, rig_defaults
-from pendfmu.optimizer import GlobalOptions
+from pendfmu.fitting.bootstrap import Replicates, bootstrap_estimates, synthetic_experiment
+from pendfmu.fitting.experiment import make_experiment
+from pendfmu.fitting.identification import fit, rig_defaults
+from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.recording import Recording, read_recording
-from pendfmu.residuals import FreeParameter, unit_of
-from pendfmu.result import Estimate
-from pendfmu.uncertainty import undetermined
+from pendfmu.fitting.residuals import FreeParameter, unit_of
+from pendfmu.fitting.result import Estimate
+from pendfmu.fitting.uncertainty import undetermined
 
 from conftest import CART_TRUTH
 

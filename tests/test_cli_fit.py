@@ -54,7 +54,7 @@ def test_fit_all_on_an_empty_folder_is_exit_2(tmp_path, capsys):
 def test_a_model_that_misses_part_of_the_recording_is_reported(tmp_path):
     """Fitting the current loop without its ripple harmonic to a recording that has one: the
     residuals stand far above the ADC noise, and the result says so."""
-    from pendfmu.identification import fit_current
+    from pendfmu.fitting.identification import fit_current
     from pendfmu.virtual_rig import Experiment, steps, write_experiments
 
     experiment = Experiment("rippled", "current", 0.012, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))
@@ -87,12 +87,12 @@ def test_an_initial_states_box_follows_bounds(tmp_path):
     around the first reading, while the at-bound flag told the user to use --bounds)."""
     import math
 
-    from pendfmu.identification import fit
+    from pendfmu.fitting.identification import fit
 
     experiment = Experiment("swing", "pendulum", 2.0, 2e-4, ("phi",), lambda t: 0.0,
                             truth_overrides={"phi0": math.pi + 0.5, "w0": 0.0}, known_initial=("w",))
     write_experiments(tmp_path, {}, seed=2, experiments=[experiment])
-    from pendfmu.optimizer import GlobalOptions
+    from pendfmu.fitting.optimizer import GlobalOptions
 
     result = fit("pendulum", [tmp_path / "swing.csv"], {}, bounds={"phi0": (3.5, 3.7)}, fix=["T_Sp"],
                  global_search=GlobalOptions(enabled=False), progress=False, uncertainty="jacobian")

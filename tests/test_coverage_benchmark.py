@@ -79,7 +79,7 @@ def test_cart_agrees_once_the_current_transients_are_resolved(simulated):
     0.003-0.009 steps at the truths 0-2. The bound, 0.03 steps, is 3x that and 30 below
     the old gap; the linearly interpolated drive (the old way) is still shown to be the
     0.1-1 step cause it was."""
-    from pendfmu.experiment import make_experiment
+    from pendfmu.fitting.experiment import make_experiment
     from pendfmu.recording import Recording
     from pendfmu.simulator.stage import StageSimulator
 

@@ -23,10 +23,10 @@ def cluster():
 @pytest.fixture
 def cart_residuals(cart_recording):
     """The cart stage's residuals for the recording, as a fit builds them."""
-    from pendfmu.experiment import make_experiment
-    from pendfmu.identification import _free_parameters, rig_defaults
+    from pendfmu.fitting.experiment import make_experiment
+    from pendfmu.fitting.identification import _free_parameters, rig_defaults
     from pendfmu.recording import read_recording
-    from pendfmu.residuals import Residuals
+    from pendfmu.fitting.residuals import Residuals
 
     values = rig_defaults()
     experiment = make_experiment(read_recording(cart_recording), "cart", values)
@@ -48,8 +48,8 @@ def test_workers_keep_their_fmu_instances_across_generations(cluster, cart_resid
     import numpy as np
     from distributed import Client
 
-    from pendfmu.optimizer import _Evaluator
-    from pendfmu.workers import CandidateEvaluator
+    from pendfmu.fitting.optimizer import _Evaluator
+    from pendfmu.fitting.workers import CandidateEvaluator
 
     def instances(dask_worker):
         copies = [a.residuals for a in dask_worker.state.actors.values() if isinstance(a, CandidateEvaluator)]
@@ -79,8 +79,8 @@ def test_a_fit_pauses_the_workers_profiler_and_restores_it(cluster, cart_residua
     simulations by 10-40 %: the evaluator stops it on every worker and starts it again."""
     from distributed import Client
 
-    from pendfmu.optimizer import _Evaluator
-    from pendfmu.workers import PROFILER_CALLBACKS
+    from pendfmu.fitting.optimizer import _Evaluator
+    from pendfmu.fitting.workers import PROFILER_CALLBACKS
 
     def running(dask_worker):
         return [dask_worker.periodic_callbacks[name].is_running() for name in PROFILER_CALLBACKS]
@@ -103,8 +103,8 @@ def test_a_lost_worker_loses_no_candidates(cart_residuals):
 
     import numpy as np
 
-    from pendfmu.optimizer import _Evaluator
-    from pendfmu.workers import cost_and_failures
+    from pendfmu.fitting.optimizer import _Evaluator
+    from pendfmu.fitting.workers import cost_and_failures
 
     candidates = [np.array([0.5, 0.5, 0.5, 0.2]) + 0.01 * k for k in range(6)]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=":0",
@@ -124,7 +124,7 @@ def test_a_lost_worker_loses_no_candidates(cart_residuals):
 
 
 def test_a_scheduler_without_workers_is_a_clear_error(cart_residuals, monkeypatch):
-    from pendfmu import optimizer
+    from pendfmu.fitting import optimizer
 
     monkeypatch.setattr(optimizer, "WORKER_WAIT", 0.5)
     with distributed.LocalCluster(n_workers=0, host="127.0.0.1", dashboard_address=":0") as cluster:

@@ -14,7 +14,7 @@ import json
 import pytest
 
 from pendfmu.cli import main
-from pendfmu.identification import fit
+from pendfmu.fitting.identification import fit
 from pendfmu.virtual_rig import standard_experiments, write_experiments
 
 TRUTH = {"T_i": 0.37e-3, "dIdt_max": 2750.0, "eta": 0.43, "k_fwc": 34.0, "F_Kc": 9.1, "F_Sc": 13.4,

@@ -15,7 +15,7 @@ import time
 from conftest import CART_TRUTH, result_without_time
 
 from pendfmu.cli import main
-from pendfmu.residuals import Residuals
+from pendfmu.fitting.residuals import Residuals
 from pendfmu.virtual_rig import Experiment, steps, write_experiments
 
 

@@ -15,11 +15,11 @@ from html.parser import HTMLParser
 import numpy as np
 import pytest
 
-from pendfmu.identification import fit
+from pendfmu.fitting.identification import fit
 from pendfmu.report import write_report
 from pendfmu.report.content import JOINTS
 from pendfmu.report.figures import friction_figure
-from pendfmu.result import Estimate, ExperimentFit, FitResult
+from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult
 from pendfmu.virtual_rig import Experiment, steps, write_experiments
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

@@ -31,6 +31,6 @@ def test_fit_example_runs_and_writes_its_files(tmp_path, capsys):
 
 
 def test_the_api_is_at_the_package_top_level():
-    from pendfmu import identification
+    from pendfmu.fitting import identification
 
     assert pendfmu.fit is identification.fit and pendfmu.fit_all is identification.fit_all

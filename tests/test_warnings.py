@@ -17,11 +17,11 @@ import pandas as pd
 import pytest
 
 from pendfmu.cli import main
-from pendfmu.experiment import make_experiment
-from pendfmu.identification import rig_defaults
-from pendfmu.plausibility import check_experiment
+from pendfmu.fitting.experiment import make_experiment
+from pendfmu.fitting.identification import rig_defaults
+from pendfmu.fitting.plausibility import check_experiment
 from pendfmu.recording import read_recording
-from pendfmu.result import Estimate, FitResult, interval
+from pendfmu.fitting.result import Estimate, FitResult, interval
 from pendfmu.virtual_rig import Experiment, write_experiments
 
 

@@ -69,13 +69,13 @@ def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
-    from pendfmu.checkpoint import Checkpoint, Interrupted, fingerprint
+    from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, fingerprint
     from pendfmu.cli.outputs import check_output_file, check_output_folder
     from pendfmu.errors import UsageError
-    from pendfmu.identification import fit, fit_all, fit_current
-    from pendfmu.optimizer import GlobalOptions
+    from pendfmu.fitting.identification import fit, fit_all, fit_current
+    from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.parameters import read_parameters, write_parameters
-    from pendfmu.plausibility import SuspiciousData
+    from pendfmu.fitting.plausibility import SuspiciousData
 
     check_output_file(args.out, "--out")
     if args.report:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from pendfmu.report.figures import write_figures
 from pendfmu.report.html import page
-from pendfmu.result import FitResult
+from pendfmu.fitting.result import FitResult
 
 __all__ = ["write_report"]
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendfmu.components import COMPONENTS
-from pendfmu.result import Estimate, ExperimentFit, FitResult
+from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult
 
 
 def unit(name: str) -> str:

@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 
 from pendfmu.report.content import (Joint, bounded_only, fitted_joints, friction_values, interval_text,
                                     signal_errors, unit)
-from pendfmu.result import ExperimentFit, FitResult
+from pendfmu.fitting.result import ExperimentFit, FitResult
 
 RECORDED = "#555555"
 RECORDED_WIDE = "#a8a8a8"

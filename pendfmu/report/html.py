@@ -15,7 +15,7 @@ from collections.abc import Iterable, Sequence
 from pendfmu.report.content import (SignalError, bounded_only, component_of, description, finite,
                                     interval_text, relative_stderr, signal_errors, unit)
 from pendfmu.report.figures import Picture
-from pendfmu.result import Estimate, FitResult
+from pendfmu.fitting.result import Estimate, FitResult
 
 DASH = "—"  # what a missing or undefined number shows
 NO_FRICTION = "<p>No friction curve: no friction parameters were fitted (or their values are not finite).</p>"

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from pendfmu.components import COMPONENTS
-from pendfmu.experiment import Experiment
+from pendfmu.fitting.experiment import Experiment
 from pendfmu.simulator.component import ComponentFMU, FMUError
 from pendfmu.simulator.native import run_single
 

@@ -13,7 +13,7 @@ import threading
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from pendfmu.residuals import Residuals
+from pendfmu.fitting.residuals import Residuals
 
 _WORKER_RESIDUALS: Residuals | None = None
 

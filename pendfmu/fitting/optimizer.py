@@ -27,8 +27,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 from scipy.optimize import differential_evolution, least_squares
 
-from pendfmu.residuals import Residuals
-from pendfmu.workers import (CandidateEvaluator, cost_and_failures, dask_costs, pause_profiler, resume_profiler,
+from pendfmu.fitting.residuals import Residuals
+from pendfmu.fitting.workers import (CandidateEvaluator, cost_and_failures, dask_costs, pause_profiler, resume_profiler,
                              worker_cost, worker_start)
 
 @dataclass

@@ -18,10 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pendfmu.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
-from pendfmu.result import Estimate, estimate_uncertainty, unknown_uncertainty
-from pendfmu.residuals import Residuals, physical
-from pendfmu.stiction import JOINTS
+from pendfmu.fitting.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
+from pendfmu.fitting.result import Estimate, estimate_uncertainty, unknown_uncertainty
+from pendfmu.fitting.residuals import Residuals, physical
+from pendfmu.fitting.stiction import JOINTS
 
 METHODS = ("bootstrap", "jacobian")
 MIN_REPLICATES = 8  # fewer successful refits than this: no bootstrap interval

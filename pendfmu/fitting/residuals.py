@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pendfmu.experiment import Experiment
+from pendfmu.fitting.experiment import Experiment
 from pendfmu.simulator.component import FMUError
 from pendfmu.simulator.stage import StageSimulator
 

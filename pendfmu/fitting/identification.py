@@ -17,19 +17,19 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.checkpoint import Checkpoint, Interrupted, best_candidate
+from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
 from pendfmu.components import COMPONENTS
-from pendfmu.experiment import STAGES, Experiment, make_experiment
-from pendfmu.optimizer import GlobalOptions, optimize
+from pendfmu.fitting.experiment import STAGES, Experiment, make_experiment
+from pendfmu.fitting.optimizer import GlobalOptions, optimize
 from pendfmu.parameters import ParameterFileError, check_parameters
-from pendfmu.plausibility import SuspiciousData, check_experiment
+from pendfmu.fitting.plausibility import SuspiciousData, check_experiment
 from pendfmu.recording import Recording, RecordingError, read_recording
-from pendfmu.residuals import FreeParameter, Residuals, physical, unit_of
+from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.simulator.component import FMUError
-from pendfmu.stiction import JOINTS, bounded_set
-from pendfmu.stiction import evidence as stiction_evidence
-from pendfmu.result import Estimate, ExperimentFit, FitResult, flag_warnings, nrmse
-from pendfmu.uncertainty import REPLICATES, assess_uncertainty
+from pendfmu.fitting.stiction import JOINTS, bounded_set
+from pendfmu.fitting.stiction import evidence as stiction_evidence
+from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult, flag_warnings, nrmse
+from pendfmu.fitting.uncertainty import REPLICATES, assess_uncertainty
 
 # name: (low, high, logarithmic). Physical ranges wide enough for any lab rig.
 DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.residuals import FreeParameter, physical, physical_jacobian
+from pendfmu.fitting.residuals import FreeParameter, physical, physical_jacobian
 
 Z95 = 1.959963984540054
 CORRELATION_LIMIT = 0.95

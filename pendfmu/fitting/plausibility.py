@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from pendfmu.experiment import Experiment
+from pendfmu.fitting.experiment import Experiment
 
 # Slowest plausible sampling per stage [s]: a current loop of ~1 ms needs sub-ms samples;
 # a cart or pendulum sampled below 20 Hz shows nothing of its friction.
