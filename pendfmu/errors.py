@@ -1,15 +1,58 @@
-"""Which exceptions mean "bad input" (exit code 2) rather than an internal failure."""
+"""pendfmu's exceptions: the base classes that the command line maps to exit codes.
+
+A leaf module: it imports nothing of pendfmu, so any module can raise these without
+pulling in the others. Each module defines its narrow classes on these bases::
+
+    PendfmuError                   anything pendfmu raises on purpose
+    +-- BadInput (ValueError)      exit 2: the input is wrong; one line naming the file,
+    |   |                          column, key or value
+    |   +-- UsageError             command-line usage (and what no narrower class covers)
+    |   +-- RecordingError         recording.schema
+    |   +-- ParameterFileError     parameters
+    |   +-- ParameterError         simulator.component
+    |   +-- SspError               ssp
+    +-- Suspicious                 exit 3 under --strict: the data look wrong (fitting.plausibility)
+    +-- FMUError (RuntimeError)    an FMU refused a call: which instance, function, time, what it logged
+        +-- CouplingError          an algebraic loop that did not settle (simulator.coupled)
+
+Anything else reaching the command line is an internal failure (exit 1).
+"""
 
 from __future__ import annotations
 
-from pendfmu.parameters import ParameterFileError
-from pendfmu.recording import RecordingError
-from pendfmu.simulator.component import ParameterError
-from pendfmu.ssp import SspError
+from collections.abc import Sequence
 
 
-class UsageError(ValueError):
+class PendfmuError(Exception):
+    """Base of every error pendfmu raises on purpose."""
+
+
+class BadInput(PendfmuError, ValueError):
+    """The user's input is wrong (exit code 2); the message names where."""
+
+
+class UsageError(BadInput):
     """Bad input that no more specific error covers."""
 
 
-BAD_INPUT_ERRORS: tuple[type[Exception], ...] = (ParameterFileError, RecordingError, ParameterError, SspError)
+class Suspicious(PendfmuError):
+    """Input that may be right but looks wrong (exit code 3 under --strict)."""
+
+
+class FMUError(PendfmuError, RuntimeError):
+    """An FMU call failed (fmi2Error or worse): the message says what the FMU logged.
+
+    Attributes, where known: `instance` (the component's name), `function` (the fmi2 call),
+    `time` (the communication point), `messages` (what the FMU logged, newest last)."""
+
+    def __init__(self, message: str, instance: str | None = None, function: str | None = None,
+                 time: float | None = None, messages: Sequence[str] = ()):
+        super().__init__(message)
+        self.instance = instance
+        self.function = function
+        self.time = time
+        self.messages = list(messages)
+
+
+EXIT_BAD_INPUT = 2
+EXIT_SUSPICIOUS = 3

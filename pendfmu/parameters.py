@@ -15,12 +15,13 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from pendfmu.components import COMPONENTS, Variable
+from pendfmu.errors import BadInput
 
 # Initial states set through the sidecar's "initial" block (signal name -> parameter).
 INITIAL_STATE_PARAMETERS = {"x": "x0", "v": "v0", "phi": "phi0", "w": "w0", "I": "I0", "I_mean": "I0"}
 
 
-class ParameterFileError(ValueError):
+class ParameterFileError(BadInput):
     """Bad parameter input: reported to the user in one line (exit code 2)."""
 
 

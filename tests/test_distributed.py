@@ -11,6 +11,7 @@ distributed = pytest.importorskip("distributed")
 
 from pendfmu.cli import main  # noqa: E402
 from conftest import result_without_time  # noqa: E402
+from pendfmu.errors import UsageError  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -128,5 +129,5 @@ def test_a_scheduler_without_workers_is_a_clear_error(cart_residuals, monkeypatc
 
     monkeypatch.setattr(optimizer, "WORKER_WAIT", 0.5)
     with distributed.LocalCluster(n_workers=0, host="127.0.0.1", dashboard_address=":0") as cluster:
-        with pytest.raises(RuntimeError, match=f"{cluster.scheduler_address} has no workers"):
+        with pytest.raises(UsageError, match=f"{cluster.scheduler_address} has no workers"):
             optimizer._Evaluator(cart_residuals, 1, {}, cluster.scheduler_address)

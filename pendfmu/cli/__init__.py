@@ -15,7 +15,7 @@ import traceback
 from collections.abc import Sequence
 
 from pendfmu.cli import build, demo, export, fit, rig, simulate
-from pendfmu.errors import BAD_INPUT_ERRORS, UsageError
+from pendfmu.errors import EXIT_BAD_INPUT, EXIT_SUSPICIOUS, BadInput, Suspicious
 
 SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export}
 
@@ -42,9 +42,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.run(args) or 0
-    except (UsageError, *BAD_INPUT_ERRORS) as error:
+    except BadInput as error:
         print(f"pendfmu {args.command}: error: {error}", file=sys.stderr)
-        return 2
+        return EXIT_BAD_INPUT
+    except Suspicious as error:
+        print(f"pendfmu {args.command}: {error}", file=sys.stderr)
+        return EXIT_SUSPICIOUS
     except KeyboardInterrupt:
         print(f"pendfmu {args.command}: interrupted", file=sys.stderr)
         return 130

@@ -62,20 +62,16 @@ def _bounds(items: list[str]) -> dict[str, tuple[float, float]]:
     return bounds
 
 
-STRICT_EXIT = 3  # finished with warnings under --strict (the result file is written when a fit ran)
-
-
 def run(args: argparse.Namespace) -> int:
     import sys
     from pathlib import Path
 
     from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, fingerprint
     from pendfmu.cli.outputs import check_output_file, check_output_folder
-    from pendfmu.errors import UsageError
+    from pendfmu.errors import EXIT_SUSPICIOUS, Suspicious, UsageError
     from pendfmu.fitting.identification import fit, fit_all, fit_current
     from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.parameters import read_parameters, write_parameters
-    from pendfmu.fitting.plausibility import SuspiciousData
 
     check_output_file(args.out, "--out")
     if args.report:
@@ -111,9 +107,9 @@ def run(args: argparse.Namespace) -> int:
                 result = fit_current(args.recordings, params, **common)
             else:
                 result = fit(args.stage, args.recordings, params, free=args.free, **common)
-    except SuspiciousData:
-        print(f"pendfmu fit: --strict: not fitted, the recordings look wrong (warnings above)", file=sys.stderr)
-        return STRICT_EXIT
+    except Suspicious:
+        print("pendfmu fit: --strict: not fitted, the recordings look wrong (warnings above)", file=sys.stderr)
+        return EXIT_SUSPICIOUS
     except Interrupted as stop:
         write_parameters(stop.parameters, args.out, interrupted=f"{stop} (best values so far)")
         checkpoint.save()
@@ -133,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"warning: {message}", file=sys.stderr)
     if result.warnings:
         print(f"{len(result.warnings)} warning(s); they are also in {args.out} (fit.warnings)", file=sys.stderr)
-    return STRICT_EXIT if args.strict and result.warnings else 0
+    return EXIT_SUSPICIOUS if args.strict and result.warnings else 0  # the result is written either way
 
 
 def _summary(result) -> str:

@@ -27,6 +27,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 from scipy.optimize import differential_evolution, least_squares
 
+from pendfmu.errors import UsageError
 from pendfmu.fitting.residuals import Residuals
 from pendfmu.fitting.workers import (CandidateEvaluator, cost_and_failures, dask_costs, pause_profiler, resume_profiler,
                              worker_cost, worker_start)
@@ -71,14 +72,14 @@ class _Evaluator:
             try:
                 from distributed import Client
             except ImportError:
-                raise RuntimeError("--scheduler needs Dask: pip install 'pendfmu[distributed]'") from None
+                raise UsageError("a Dask scheduler needs Dask: pip install 'pendfmu[distributed]'") from None
             self.client = Client(scheduler, set_as_default=False, direct_to_workers=True)
             try:  # a cluster started with the fit may still be bringing its workers up
                 self.client.wait_for_workers(1, timeout=WORKER_WAIT)
             except TimeoutError:
                 self.client.close()
-                raise RuntimeError(f"the Dask scheduler at {scheduler} has no workers "
-                                   f"(waited {WORKER_WAIT:g} s)") from None
+                raise UsageError(f"the Dask scheduler at {scheduler} has no workers "
+                                 f"(waited {WORKER_WAIT:g} s)") from None
             self.paused = self.client.run(pause_profiler)  # worker address -> callbacks stopped
             with self.client.as_current():  # the actors' proxies bind to this client, not a default one
                 self.actors = [self.client.submit(CandidateEvaluator, residuals, actor=True, workers=[worker],

@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from pendfmu.errors import Suspicious
 from pendfmu.fitting.experiment import Experiment
 
 # Slowest plausible sampling per stage [s]: a current loop of ~1 ms needs sub-ms samples;
@@ -38,7 +39,7 @@ UNIT_SLIPS = ((1000.0, "1000 times: is it in milli-units (mm, mA, ms)?"),
               (180.0 / math.pi, "180/pi times: is the angle in degrees?"))
 
 
-class SuspiciousData(Exception):
+class SuspiciousData(Suspicious):
     """Warnings about the recordings, raised instead of fitting when the caller is strict."""
 
     def __init__(self, warnings: list[str]):

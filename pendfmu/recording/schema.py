@@ -9,6 +9,7 @@ import numbers
 from collections.abc import Mapping
 
 from pendfmu.components import COMPONENTS
+from pendfmu.errors import BadInput
 
 
 def _signal_names() -> tuple[str, ...]:
@@ -69,7 +70,7 @@ SIDECAR_KEYS: tuple[str, ...] = ("experiment", "signals", "parameters", "initial
 SIGNAL_INFO_KEYS: tuple[str, ...] = ("resolution", "quantizer", "noise", "ignore")
 
 
-class RecordingError(ValueError):
+class RecordingError(BadInput):
     """A recording (or its sidecar) that cannot be used; the message says where and why."""
 
 

@@ -22,17 +22,14 @@ from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE
 from fmpy.logging import addLoggerProxy
 
+from pendfmu.errors import BadInput, FMUError
 from pendfmu.components import COMPONENTS
 from pendfmu.fmubuild import ensure_fmu
 
 _UNPACKED: dict[str, tuple[Path, object]] = {}
 
 
-class FMUError(RuntimeError):
-    """An FMU call returned fmi2Error; the message carries what the FMU logged."""
-
-
-class ParameterError(ValueError):
+class ParameterError(BadInput):
     """A parameter name that the component does not have."""
 
 
@@ -98,7 +95,8 @@ class ComponentFMU:
             return function(*args, **kwargs)
         except FMICallException as error:
             said = "; ".join(self.messages[before:]) or str(error)
-            raise FMUError(f"{self.name}: {said}") from None
+            raise FMUError(f"{self.name}: {said}", instance=self.name, function=getattr(function, "__name__", None),
+                           messages=self.messages[before:]) from None
 
     def _refs(self, names: Sequence[str]) -> list[int]:
         unknown = [n for n in names if n not in self.vr]

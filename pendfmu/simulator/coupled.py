@@ -37,6 +37,7 @@ operation, so that they stay bit-identical. Change both together.
 
 from __future__ import annotations
 
+from pendfmu.errors import FMUError
 from pendfmu.simulator.tear import CONTINUE, CONVERGED, EXHAUSTED, JUMP, TearSolver
 
 #: The held piece across an event starts this fraction of the communication step before it
@@ -52,7 +53,7 @@ EVENT_MARGIN = 1e-3
 MAX_PIECES = 16
 
 
-class CouplingError(RuntimeError):
+class CouplingError(FMUError):
     """A coupled group (algebraic loop) did not converge at a communication point."""
 
 

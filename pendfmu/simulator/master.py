@@ -300,7 +300,8 @@ class Master(CoupledSteps):
         if system.fail_kind:
             name = names[system.fail_unit] if system.fail_unit >= 0 else "the system"
             said = "; ".join(fmus[name].messages[-3:]) if name in fmus else "out of memory"
-            raise FMUError(f"{name} at t = {system.fail_time:.9g} s: {said}")
+            raise FMUError(f"{name} at t = {system.fail_time:.9g} s: {said}", instance=name, time=system.fail_time,
+                           messages=fmus[name].messages[-3:] if name in fmus else ())
         # copy=False: the columns stay the arrays filled above (no second pass over fresh memory)
         return pd.DataFrame({"time": sample_times, **{label: recorded[:, j] for j, label in enumerate(labels)}},
                             copy=False)
@@ -369,7 +370,8 @@ class Master(CoupledSteps):
         try:
             fmu.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
         except FMICallException:
-            raise FMUError(f"{fmu.name} at t = {t:.9g} s: {'; '.join(fmu.messages[-3:])}") from None
+            raise FMUError(f"{fmu.name} at t = {t:.9g} s: {'; '.join(fmu.messages[-3:])}", instance=fmu.name,
+                           function="fmi2DoStep", time=t, messages=fmu.messages[-3:]) from None
 
     def _publish(self, fmus, signals, names) -> None:
         for (source, output) in signals:

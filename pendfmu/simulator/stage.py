@@ -92,7 +92,8 @@ class StageSimulator:
         result, failed = run_single(fmu.slave, times, [fmu.vr[n] for n in names], matrix,
                                     [fmu.vr[n] for n in outputs], slopes)
         if failed >= 0:
-            raise FMUError(f"{component} at t = {times[failed]:.9g} s: {'; '.join(fmu.messages[-3:])}")
+            raise FMUError(f"{component} at t = {times[failed]:.9g} s: {'; '.join(fmu.messages[-3:])}",
+                           instance=component, time=float(times[failed]), messages=fmu.messages[-3:])
         return result
 
     def current(self, values: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:

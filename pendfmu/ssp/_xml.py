@@ -13,6 +13,7 @@ from pathlib import Path
 
 from lxml import etree
 
+from pendfmu.errors import BadInput
 from pendfmu.ssp.model import Unit
 
 SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
@@ -44,7 +45,7 @@ def ssv(tag: str) -> str:
     return f"{{{SSV_NS}}}{tag}"
 
 
-class SspError(ValueError):
+class SspError(BadInput):
     """An SSD, SSV or SSP file (or a system about to be written) is not acceptable.
 
     ``file``, ``line`` and ``element`` locate the problem; ``problem`` says what is wrong.
