@@ -213,7 +213,7 @@ def dask_scaling(stage: str = "pendulum") -> None:
     except ImportError:
         print("dask: not installed (pip install 'pendfmu[distributed]')")
         return
-    from pendfmu.fitting.experiment import STAGES, make_experiment
+    from pendfmu.fitting.stages import STAGES, make_experiment
     from pendfmu.fitting.identification import _free_parameters, rig_defaults
     from pendfmu.fitting.optimizer import GlobalOptions, global_search
     from pendfmu.recording import read_recording

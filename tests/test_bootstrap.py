@@ -20,7 +20,7 @@ import pytest
 from scipy.stats import t as student_t
 
 from pendfmu.fitting.bootstrap import Replicates, bootstrap_estimates, synthetic_experiment
-from pendfmu.fitting.experiment import make_experiment
+from pendfmu.fitting.stages import make_experiment
 from pendfmu.fitting.identification import fit, rig_defaults
 from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.recording import Recording, read_recording
@@ -80,14 +80,11 @@ def monte_carlo(cart_recording):
     """The cart stage refitted on 16 recordings of its truth, grids at random offsets."""
     recording = read_recording(cart_recording)
     values = {**rig_defaults(), **CART_TRUTH, **recording.parameters}
-    experiment = make_experiment(recording, "cart", values)
-    from pendfmu.simulator.stage import StageSimulator
-
-    simulator = StageSimulator(experiment)
+    replay = make_experiment(recording, "cart", values).replay()
     try:
-        exact = simulator.simulate(values)["x"]
+        exact = replay.simulate(values, ["x"])["x"]
     finally:
-        simulator.close()
+        replay.close()
     resolution = recording.resolution("x")
     rng = np.random.default_rng(11)
     estimates = []

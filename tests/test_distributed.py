@@ -24,7 +24,7 @@ def cluster():
 @pytest.fixture
 def cart_residuals(cart_recording):
     """The cart stage's residuals for the recording, as a fit builds them."""
-    from pendfmu.fitting.experiment import make_experiment
+    from pendfmu.fitting.stages import make_experiment
     from pendfmu.fitting.identification import _free_parameters, rig_defaults
     from pendfmu.recording import read_recording
     from pendfmu.fitting.residuals import Residuals

@@ -9,20 +9,20 @@ import json
 import pytest
 
 from pendfmu.cli import main
-from pendfmu.simulator import stage
+from pendfmu.simulator import replay
 from pendfmu.simulator.component import FMUError
 
 
 @pytest.fixture
 def failing_region(monkeypatch):
-    original = stage.StageSimulator.simulate
+    original = replay.Replay.simulate
 
-    def simulate(self, values, extra=()):
+    def simulate(self, values, outputs):
         if values["F_Kc"] > 9.0:
             raise FMUError("Cart at t = 0.1 s: the solution is no longer finite (forced by the test)")
-        return original(self, values, extra)
+        return original(self, values, outputs)
 
-    monkeypatch.setattr(stage.StageSimulator, "simulate", simulate)
+    monkeypatch.setattr(replay.Replay, "simulate", simulate)
 
 
 def test_failures_are_penalized_counted_and_reported(cart_recording, tmp_path, failing_region):

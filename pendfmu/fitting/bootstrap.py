@@ -85,20 +85,20 @@ def synthetic_experiment(experiment: Experiment, simulated: dict[str, np.ndarray
     values as known values (where the recording's sidecar does not state them)."""
     recording = experiment.recording
     signals = dict(recording.signals)
-    for name in experiment.stage.fitted:
-        exact = simulated[name]
+    for output, column in experiment.match.items():
+        exact = simulated[output]
         if source == "residuals":
-            errors = residual[name] * experiment.scales[name]
-            signals[name] = exact + np.roll(errors, int(rng.integers(len(errors))))
+            errors = residual[column] * experiment.scales[column]
+            signals[column] = exact + np.roll(errors, int(rng.integers(len(errors))))
             continue
-        info = recording.signal_info.get(name)
+        info = recording.signal_info.get(column)
         resolution = info.resolution if info else None
-        noise = info.noise if info and info.noise else (0.0 if resolution else experiment.scales[name])
+        noise = info.noise if info and info.noise else (0.0 if resolution else experiment.scales[column])
         value = exact + rng.normal(0.0, noise, len(exact)) if noise else exact
         if resolution:
             offset = float(rng.uniform(-0.5, 0.5)) * resolution
-            value = quantize(value + offset, resolution, recording.quantizer(name)) - offset
-        signals[name] = value
+            value = quantize(value + offset, resolution, recording.quantizer(column)) - offset
+        signals[column] = value
     fixed = dict(experiment.fixed)
     fixed.update({k: v for k, v in upstream.items() if k not in recording.parameters})
     return replace(experiment, recording=replace(recording, signals=signals), fixed=fixed)
@@ -150,8 +150,8 @@ def data_seed(residuals: Residuals) -> int:
     for experiment in residuals.experiments:
         digest.update(experiment.name.encode())
         digest.update(np.ascontiguousarray(experiment.time).tobytes())
-        for name in experiment.stage.fitted:
-            digest.update(np.ascontiguousarray(experiment.recorded(name)).tobytes())
+        for column in experiment.match.values():
+            digest.update(np.ascontiguousarray(experiment.recorded(column)).tobytes())
     return int.from_bytes(digest.digest()[:8], "little")
 
 
@@ -191,8 +191,8 @@ def _scaled_residuals(residuals: Residuals, u: np.ndarray, simulated) -> list[di
     """Each experiment's scaled residual per fitted signal at the estimate."""
     result = []
     for experiment, simulation in zip(residuals.experiments, simulated):
-        result.append({name: (experiment.recorded(name) - simulation[name]) / experiment.scales[name]
-                       for name in experiment.stage.fitted})
+        result.append({column: (experiment.recorded(column) - simulation[output]) / experiment.scales[column]
+                       for output, column in experiment.match.items()})
     return result
 
 

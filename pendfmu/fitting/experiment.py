@@ -1,18 +1,15 @@
-"""Experiments: a recording seen by one identification stage.
+"""Experiments: a recording seen by a fit, with the model that replays it.
 
-The paper identifies the rig block by block; each stage simulates only the FMUs it needs
-and compares them with the signals the block's sensor recorded:
+An :class:`Experiment` gathers what a fit needs from one recording: the model to simulate
+(simulator/model.py), which of its inputs the recording drives and how (held or linear
+between samples), which of its outputs are compared with which recorded column (each with
+its sensor's error scale), the parameter values fixed for this recording (the given
+values, then the sidecar's "parameters", then its "initial" states), and the initial
+states the recording does not know, which the fit estimates.
 
-    current   CurrentLoop driven by the recorded I_c          -> fitted to I
-    cart      CurrentLoop -> Cart driven by I_c (or Cart driven
-              by the recorded I, ``drive="I"``)                -> fitted to x
-    pendulum  Pendulum driven by the recorded cart acceleration
-              a (or a still cart)                              -> fitted to phi
-
-An :class:`Experiment` gathers what a stage needs from one recording: the drive signal,
-the fitted signals with their sensor scales, the parameter values fixed for this
-recording (the parameters file, then the sidecar's "parameters", then its "initial"
-states), and the initial states the recording does not know, which the fit estimates.
+The paper's stages are presets of this (stages.py): the same mechanism with pendfmu's own
+components, the drives and matches the paper uses, and the free parameters it names. A
+user's FMU or SSP system is the same thing with the names the user gives.
 """
 
 from __future__ import annotations
@@ -24,32 +21,27 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.parameters import INITIAL_STATE_PARAMETERS, check_parameters, with_initial_states
 from pendfmu.recording import Recording, RecordingError
+from pendfmu.simulator.model import Model
+from pendfmu.simulator.replay import Drive, Refinement, Replay
 
 
 @dataclass(frozen=True)
-class Stage:
+class Setup:
+    """What a fit does with one recording, before its values are known: the model, the
+    drives (model input -> (column, interpolation)), the matches (model output ->
+    column), the initial states to estimate where the recording does not state them
+    (column of the state -> the model's parameter for its initial value), and the
+    cheaper model of the global search (every k-th sample, a longer internal step)."""
+
     name: str
-    component: str  # the FMU whose parameters are fitted
-    fitted: tuple[str, ...]  # recorded signals compared with the simulation
-    default_free: tuple[str, ...]
-    drives: tuple[str, ...]  # acceptable drive signals, preferred first ("" = none)
-    estimated_initial: tuple[str, ...] = ()  # initial states estimated when a recording does not state them
-    # The global search's cheaper model: every k-th sample, and a longer internal step.
-    # Only where the drive is slow: the cart's drive current carries the PWM ripple, which
-    # a coarser sampling would alias.
+    model: Model
+    drives: Mapping[str, tuple[str, str]]
+    match: Mapping[str, str]
+    estimated_initial: Mapping[str, str] = field(default_factory=dict)
+    refine: Refinement | None = None
     coarse_decimate: int = 1
-    coarse_solver_step: float | None = None
-
-
-STAGES: dict[str, Stage] = {
-    "current": Stage("current", "CurrentLoop", ("I",), ("T_i", "dIdt_max"), ("I_c",)),
-    "cart": Stage("cart", "Cart", ("x",), ("eta", "k_fwc", "F_Kc", "F_Sc"), ("I_c", "I"),
-                  coarse_solver_step=4e-4),
-    "pendulum": Stage("pendulum", "Pendulum", ("phi",), ("k_fwp", "T_Kp", "T_Sp"), ("a", ""),
-                      estimated_initial=("phi",), coarse_decimate=10, coarse_solver_step=4e-4),
-}
+    coarse_values: Mapping[str, float] = field(default_factory=dict)
 
 
 def signal_scale(recording: Recording, name: str) -> float:
@@ -70,14 +62,13 @@ def signal_scale(recording: Recording, name: str) -> float:
 
 @dataclass
 class Experiment:
-    """One recording prepared for one stage."""
+    """One recording prepared for a fit."""
 
     recording: Recording
-    stage: Stage
-    drive: str  # the drive signal's name, "" when nothing drives it
+    setup: Setup
     fixed: dict[str, float]  # known parameter values for this recording
     estimated: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # name -> (guess, low, high)
-    scales: dict[str, float] = field(default_factory=dict)
+    scales: dict[str, float] = field(default_factory=dict)  # recorded column -> error scale
 
     @property
     def name(self) -> str:
@@ -88,49 +79,39 @@ class Experiment:
     def time(self) -> np.ndarray:
         return self.recording.time
 
-    def drive_values(self) -> np.ndarray:
-        return self.recording.signal(self.drive) if self.drive else np.zeros_like(self.time)
+    @property
+    def model(self) -> Model:
+        return self.setup.model
 
-    def recorded(self, name: str) -> np.ndarray:
-        return self.recording.signal(name)
+    @property
+    def match(self) -> Mapping[str, str]:
+        return self.setup.match
+
+    def recorded(self, column: str) -> np.ndarray:
+        return self.recording.signal(column)
+
+    def replay(self, decimate: int = 1) -> Replay:
+        """A simulator of this recording (every `decimate`-th sample)."""
+        drives = {name: Drive(self.recording.signal(column), interpolation)
+                  for name, (column, interpolation) in self.setup.drives.items()}
+        return Replay(self.model, self.time, drives, decimate, self.setup.refine)
 
 
-def make_experiment(recording: Recording, stage: str, parameters: Mapping[str, float],
-                    drive: str | None = None) -> Experiment:
-    """Check that `recording` has what `stage` needs and gather its fixed values."""
-    if stage not in STAGES:
-        raise RecordingError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}")
-    spec = STAGES[stage]
+def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float]) -> Experiment:
+    """The experiment of one recording: `fixed` are its known values (given, sidecar and
+    initial states merged by the caller); initial states it does not state are estimated
+    in a box of +-2 sensor steps around the first reading."""
     where = str(recording.path)
-    for name in spec.fitted:
-        if name not in recording.signals:
-            raise RecordingError(f"{where}: stage {stage} needs the recorded signal {name!r}; "
+    for column in (*setup.match.values(), *(c for c, _ in setup.drives.values())):
+        if column not in recording.signals:
+            raise RecordingError(f"{where}: {setup.name} needs the recorded signal {column!r}; "
                                  f"columns: {', '.join(('time', *recording.signals))}")
-    chosen = _choose_drive(recording, spec, drive)
-    fixed = dict(parameters)
-    fixed.update(check_parameters(recording.parameters, where))
-    fixed = with_initial_states(fixed, recording.initial, where)
-    experiment = Experiment(recording, spec, chosen, fixed)
-    for state in spec.estimated_initial:
-        if state not in recording.initial:
-            first = float(recording.signal(state)[0])
-            step = recording.resolution(state) or signal_scale(recording, state)
-            experiment.estimated[INITIAL_STATE_PARAMETERS[state]] = (first, first - 2 * step, first + 2 * step)
-    for name in spec.fitted:
-        experiment.scales[name] = signal_scale(recording, name)
+    experiment = Experiment(recording, setup, dict(fixed))
+    for column, parameter in setup.estimated_initial.items():
+        if column not in recording.initial:
+            first = float(recording.signal(column)[0])
+            step = recording.resolution(column) or signal_scale(recording, column)
+            experiment.estimated[parameter] = (first, first - 2 * step, first + 2 * step)
+    for column in setup.match.values():
+        experiment.scales[column] = signal_scale(recording, column)
     return experiment
-
-
-def _choose_drive(recording: Recording, spec: Stage, drive: str | None) -> str:
-    if drive is not None:
-        if drive not in spec.drives:
-            raise RecordingError(f"stage {spec.name} is driven by {' or '.join(d for d in spec.drives if d)}, "
-                                 f"not {drive!r}")
-        if drive and drive not in recording.signals:
-            raise RecordingError(f"{recording.path}: no column {drive!r} to drive the {spec.name} stage")
-        return drive
-    for candidate in spec.drives:
-        if candidate == "" or candidate in recording.signals:
-            return candidate
-    raise RecordingError(f"{recording.path}: stage {spec.name} needs a drive signal "
-                         f"({' or '.join(spec.drives)}); columns: {', '.join(('time', *recording.signals))}")

@@ -19,7 +19,8 @@ import numpy as np
 
 from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
 from pendfmu.components import COMPONENTS
-from pendfmu.fitting.experiment import STAGES, Experiment, make_experiment
+from pendfmu.fitting.experiment import Experiment
+from pendfmu.fitting.stages import STAGES, make_experiment
 from pendfmu.fitting.optimizer import GlobalOptions, optimize
 from pendfmu.parameters import ParameterFileError, check_parameters
 from pendfmu.fitting.plausibility import SuspiciousData, check_experiment
@@ -232,10 +233,11 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
 def _experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]:
     fits = []
     for experiment, simulated in zip(residuals.experiments, residuals.simulate(u)):
-        recorded = {name: experiment.recorded(name) for name in experiment.stage.fitted}
+        recorded = {column: experiment.recorded(column) for column in experiment.match.values()}
         resolution = {name: step for name in recorded if (step := experiment.recording.resolution(name))}
         fits.append(ExperimentFit(experiment.name, experiment.time, recorded,
-                                  {name: simulated[name] for name in recorded}, resolution))
+                                  {column: simulated[output] for output, column in experiment.match.items()},
+                                  resolution))
     return fits
 
 

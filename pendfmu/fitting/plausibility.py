@@ -50,9 +50,10 @@ class SuspiciousData(Suspicious):
 def check_experiment(experiment: Experiment) -> list[str]:
     """Every warning about one recording as its stage sees it."""
     warnings = _time_scale(experiment)
-    for name in (*experiment.stage.fitted, *([experiment.drive] if experiment.drive else [])):
+    stage = experiment.setup.name
+    for name in dict.fromkeys((*experiment.match.values(), *(c for c, _ in experiment.setup.drives.values()))):
         warnings += _signal_scale(experiment, name)
-    if experiment.stage.name == "pendulum" and not experiment.drive:
+    if stage == "pendulum" and not experiment.setup.drives:
         warnings += _swing_period(experiment)
     if experiment.recording.undescribed:
         warnings += _missing_sidecar(experiment)
@@ -70,10 +71,10 @@ def _time_scale(experiment: Experiment) -> list[str]:
     period = float(np.median(np.diff(time)))
     duration = float(time[-1] - time[0])
     warnings = []
-    limit = MAX_SAMPLE_PERIOD[experiment.stage.name]
+    limit = MAX_SAMPLE_PERIOD.get(experiment.setup.name, math.inf)  # a user's model: no rule known
     if period > limit:
         warnings.append(f"{_where(experiment)}: column 'time': samples {period:.4g} s apart ({1 / period:.3g} Hz), "
-                        f"slower than a {experiment.stage.name} recording can be (at most {limit:g} s): time must be "
+                        f"slower than a {experiment.setup.name} recording can be (at most {limit:g} s): time must be "
                         f"in seconds; is it in ms?")
     if duration > MAX_DURATION:
         warnings.append(f"{_where(experiment)}: column 'time': the recording lasts {duration:.4g} s "
@@ -148,11 +149,11 @@ def _swing_period(experiment: Experiment) -> list[str]:
 def _missing_sidecar(experiment: Experiment) -> list[str]:
     path = experiment.recording.path
     sidecar = path.with_suffix(".json").name if path else "a sidecar"
-    assumed = [f"{name} = {experiment.fixed[name]:g}" for name in RUN_VALUES.get(experiment.stage.name, ())
+    assumed = [f"{name} = {experiment.fixed[name]:g}" for name in RUN_VALUES.get(experiment.setup.name, ())
                if name in experiment.fixed]
     text = (f"{_where(experiment)}: no sidecar ({sidecar}): the run is assumed to have "
             f"{', '.join(assumed) or 'the default values'} (from --params or MODEL.md's reference rig), and the "
             f"sensor's error scale is estimated from the data")
-    if experiment.stage.name == "cart" and experiment.fixed.get("m_p", 0.0) > 0:
+    if experiment.setup.name == "cart" and experiment.fixed.get("m_p", 0.0) > 0:
         text += "; if the pendulum was removed for this run, state \"parameters\": {\"m_p\": 0} in the sidecar"
     return [text]

@@ -22,7 +22,6 @@ import numpy as np
 
 from pendfmu.fitting.experiment import Experiment
 from pendfmu.simulator.component import FMUError
-from pendfmu.simulator.stage import StageSimulator
 
 # Residual given to every sample of a simulation that failed. It must exceed any residual
 # a poor but successful simulation produces (a centimetre against a 2.8 um encoder scale is
@@ -102,7 +101,7 @@ def unit_of(free: Sequence[FreeParameter], values: Sequence[float]) -> np.ndarra
 
 
 class Residuals:
-    """The residual vector of a stage's experiments as a function of the unit-box vector."""
+    """The residual vector of a fit's experiments as a function of the unit-box vector."""
 
     def __init__(self, experiments: Sequence[Experiment], free: Sequence[FreeParameter],
                  shared: Mapping[str, float], cost: str = "plain", decimate: int = 1):
@@ -112,11 +111,11 @@ class Residuals:
         self.free = list(free)
         self.shared = dict(shared)
         self.cost = cost
-        self.simulators = [StageSimulator(e, decimate) for e in self.experiments]
+        self.simulators = [e.replay(decimate) for e in self.experiments]
         self.evaluations = 0
         self.failures = 0
         self.last_failure = ""
-        self.size = sum(len(s.times) * len(e.stage.fitted) for s, e in zip(self.simulators, self.experiments))
+        self.size = sum(len(s.times) * len(e.match) for s, e in zip(self.simulators, self.experiments))
 
     def values(self, u: Sequence[float], experiment: Experiment) -> dict[str, float]:
         """All parameter values one experiment runs with."""
@@ -127,7 +126,8 @@ class Residuals:
         return values
 
     def simulate(self, u: Sequence[float], extra: tuple[str, ...] = ()) -> list[dict[str, np.ndarray]]:
-        return [s.simulate(self.values(u, e), extra) for s, e in zip(self.simulators, self.experiments)]
+        """Per experiment, its matched outputs (and `extra` outputs) by output name."""
+        return [s.simulate(self.values(u, e), [*e.match, *extra]) for s, e in zip(self.simulators, self.experiments)]
 
     def __call__(self, u: Sequence[float]) -> np.ndarray:
         self.evaluations += 1
@@ -139,8 +139,8 @@ class Residuals:
             return np.full(self.size, PENALTY)
         parts = []
         for simulator, experiment, result in zip(self.simulators, self.experiments, simulated):
-            for name in experiment.stage.fitted:
-                parts.append(self._scaled(experiment, name, result[name], simulator.index))
+            for output, column in experiment.match.items():
+                parts.append(self._scaled(experiment, column, result[output], simulator.index))
         residual = np.concatenate(parts)
         if not np.all(np.isfinite(residual)):
             self.failures += 1
@@ -148,10 +148,10 @@ class Residuals:
             return np.full(self.size, PENALTY)
         return residual
 
-    def _scaled(self, experiment: Experiment, name: str, simulated: np.ndarray, index: np.ndarray) -> np.ndarray:
-        error = simulated - experiment.recorded(name)[index]
-        scale = experiment.scales[name]
-        resolution = experiment.recording.resolution(name)
+    def _scaled(self, experiment: Experiment, column: str, simulated: np.ndarray, index: np.ndarray) -> np.ndarray:
+        error = simulated - experiment.recorded(column)[index]
+        scale = experiment.scales[column]
+        resolution = experiment.recording.resolution(column)
         if self.cost == "quantized" and resolution:
             error = np.sign(error) * np.maximum(np.abs(error) - resolution / 2, 0.0)
         return error / scale

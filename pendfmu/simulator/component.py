@@ -61,13 +61,24 @@ class ComponentFMU:
                  log_events: bool = False, fmu: str | Path | None = None, instance: str | None = None):
         self.messages: list[str] = []
         directory, md = unpacked_fmu(name, fmu)
+        if md.coSimulation is None:
+            raise ParameterError(f"{fmu or name}: a Model-Exchange-only FMU; pendfmu co-simulates (export it with "
+                                 f"Co-Simulation)")
         kind = md.coSimulation.modelIdentifier
-        if kind not in COMPONENTS:
-            raise ParameterError(f"{fmu or name}: {kind!r} is not a pendfmu component ({', '.join(COMPONENTS)})")
+        if fmu is None and kind not in COMPONENTS:
+            raise ParameterError(f"{name}: {kind!r} is not a pendfmu component ({', '.join(COMPONENTS)})")
         self.name = instance or name
-        self.component = COMPONENTS[kind]
+        self.component = COMPONENTS.get(kind)  # None: an FMU pendfmu did not make
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.types = {v.name: v.type for v in md.modelVariables}
+        self.parameter_names = (list(self.component.parameters) if self.component else
+                                [v.name for v in md.modelVariables if v.causality == "parameter"])
+        # What the FMU declares it can do; nothing else is ever called (FMI 2.0, 4.3.1).
+        self.can_interpolate_inputs = bool(md.coSimulation.canInterpolateInputs)
+        self.can_get_set_state = bool(md.coSimulation.canGetAndSetFMUstate)
+        self.can_vary_step = bool(md.coSimulation.canHandleVariableCommunicationStepSize)
+        self.resets = True  # until fmi2Reset has failed once: then it is re-instantiated per run
+        self._log_events = log_events
         self._callbacks = self._make_callbacks()
         self.slave = FMU2Slave(guid=md.guid, unzipDirectory=str(directory), modelIdentifier=kind,
                                instanceName=self.name)
@@ -114,14 +125,23 @@ class ComponentFMU:
         self.time = start_time
 
     def restart(self, parameters: Mapping[str, float], start_time: float = 0.0) -> None:
-        """Reset and initialize again with new parameter values (cheaper than a new instance)."""
-        self._call(self.slave.reset)
+        """Reset and initialize again with new parameter values (cheaper than a new instance).
+        An FMU whose fmi2Reset fails (not every exporter implements it) is freed and
+        instantiated anew, now and for every later run."""
+        if self.resets:
+            try:
+                self._call(self.slave.reset)
+            except FMUError:
+                self.resets = False
+        if not self.resets:
+            self.slave.freeInstance()
+            self._call(self.slave.instantiate, callbacks=self._callbacks, loggingOn=self._log_events)
         self._initialize(parameters, start_time)
 
     # -- values
 
     def set_parameters(self, parameters: Mapping[str, float]) -> None:
-        known = self.component.parameters
+        known = self.parameter_names
         unknown = [n for n in parameters if n not in known]
         if unknown:
             raise ParameterError(f"{self.name} has no parameter {', '.join(map(repr, unknown))}; "
@@ -151,6 +171,9 @@ class ComponentFMU:
         if inputs:
             self.set(**inputs)
         if derivatives:
+            if not self.can_interpolate_inputs:
+                raise ParameterError(f"{self.name}: the FMU cannot interpolate inputs (canInterpolateInputs is "
+                                     f"false): its inputs are held between communication points")
             refs, orders, values = [], [], []
             for name, ders in derivatives.items():
                 for order, value in enumerate(ders, start=1):

@@ -1,0 +1,148 @@
+"""The paper's identification stages: presets of the generic fit.
+
+The paper identifies the rig block by block; each stage simulates only the FMUs it needs
+and compares them with the signals the block's sensor recorded:
+
+    current   CurrentLoop driven by the recorded I_c (held)       -> fitted to I
+    cart      CurrentLoop -> Cart driven by I_c (held), or Cart
+              driven by the recorded I (linear, ``drive="I"``)     -> fitted to x
+    pendulum  Pendulum driven by the recorded cart acceleration a
+              (linear), or a still cart                            -> fitted to phi
+
+Each is a Setup (experiment.py) of pendfmu's own components: the same mechanism as a
+user's FMU, with the drives, matches, free parameters and estimated initial states the
+paper uses. Nothing in the simulator knows the stages' names.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from pendfmu.fitting.experiment import Experiment, Setup, prepare
+from pendfmu.parameters import INITIAL_STATE_PARAMETERS, check_parameters, with_initial_states
+from pendfmu.recording import Recording, RecordingError
+from pendfmu.simulator.graph import Connection
+from pendfmu.simulator.model import Model
+
+
+@dataclass(frozen=True)
+class Stage:
+    name: str
+    component: str  # the FMU whose parameters are fitted
+    fitted: tuple[str, ...]  # recorded signals compared with the simulation (same names as the outputs)
+    default_free: tuple[str, ...]
+    drives: tuple[str, ...]  # acceptable drive signals, preferred first ("" = none)
+    estimated_initial: tuple[str, ...] = ()  # initial states estimated when a recording does not state them
+    # The global search's cheaper model: every k-th sample, and a longer internal step.
+    # Only where the drive is slow: the cart's drive current carries the PWM ripple, which
+    # a coarser sampling would alias.
+    coarse_decimate: int = 1
+    coarse_solver_step: float | None = None
+
+
+STAGES: dict[str, Stage] = {
+    "current": Stage("current", "CurrentLoop", ("I",), ("T_i", "dIdt_max"), ("I_c",)),
+    "cart": Stage("cart", "Cart", ("x",), ("eta", "k_fwc", "F_Kc", "F_Sc"), ("I_c", "I"),
+                  coarse_solver_step=4e-4),
+    "pendulum": Stage("pendulum", "Pendulum", ("phi",), ("k_fwp", "T_Kp", "T_Sp"), ("a", ""),
+                      estimated_initial=("phi",), coarse_decimate=10, coarse_solver_step=4e-4),
+}
+
+
+# The current after a jump of the command relaxes with time constant T_i (0.3 ms), which is
+# not much longer than a 0.2 ms sample: passed to the cart linearly interpolated between
+# samples, its impulse was off by enough to move the cart's estimates by many of their
+# standard errors (the cart's position against an exact event-driven simulator: up to
+# 0.9 encoder steps after a step, 0.5 on a staircase ramp, whose small steps all err the
+# same way). Every step in which the current has not settled is stepped on a finer grid.
+SUBSTEPS = 8  # communication steps per sample inside a transient: the chord error falls 64-fold
+SETTLE = 8.0  # a transient lasts the slew |jump| / dIdt_max plus SETTLE time constants (e^-8)
+
+
+def transient_grid(times: np.ndarray, command: np.ndarray, T_i: float, dIdt_max: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Communication points for a chain driven by a held command: the samples, with
+    SUBSTEPS points per sample while the current settles after a change. Returns the
+    points and the index of each sample among them."""
+    jumps = np.abs(np.diff(command))
+    refine = np.zeros(len(times), bool)  # refine[k]: the step from sample k to k+1
+    changes = np.flatnonzero(jumps > 0) + 1
+    if len(changes):
+        ends = times[changes] + jumps[changes - 1] / dIdt_max + SETTLE * T_i
+        last = np.searchsorted(times, ends, side="right")
+        # sample k is refined when a change at or before it has not settled by k
+        marks = np.zeros(len(times) + 1, int)
+        np.add.at(marks, changes, 1)
+        np.add.at(marks, last, -1)
+        refine = np.cumsum(marks[:-1]) > 0
+    refine[-1] = False
+    if not refine.any():
+        return times, np.arange(len(times))
+    counts = np.where(refine, SUBSTEPS, 1)
+    starts = np.repeat(times, counts)
+    within = np.arange(len(starts)) - np.repeat(np.cumsum(counts) - counts, counts)
+    widths = np.repeat(np.append(np.diff(times), 0.0) / counts, counts)
+    points = starts + within * widths
+    return points, np.cumsum(counts) - counts
+
+
+def settling_current(times: np.ndarray, drives: Mapping[str, np.ndarray], values: Mapping[str, float]
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The cart stage's refinement (a Replay's `refine`): the transient grid of its command."""
+    return transient_grid(times, drives["CurrentLoop.I_c"], values["T_i"], values["dIdt_max"])
+
+
+@lru_cache(maxsize=None)
+def stage_setup(stage: str, drive: str) -> Setup:
+    """The Setup of a stage driven by the recorded column `drive` ("" for none)."""
+    spec = STAGES[stage]
+    match = {name: name for name in spec.fitted}
+    estimated = {name: INITIAL_STATE_PARAMETERS[name] for name in spec.estimated_initial}
+    coarse = {"solver_step": spec.coarse_solver_step} if spec.coarse_solver_step else {}
+    if stage == "cart" and drive == "I_c":
+        model = Model.of_components("cart", {"CurrentLoop": "CurrentLoop", "Cart": "Cart"},
+                                    [Connection("CurrentLoop", "I_mean", "Cart", "I")])
+        return Setup(stage, model, {"I_c": ("I_c", "hold")}, match, estimated, settling_current,
+                     spec.coarse_decimate, coarse)
+    model = Model.of_components(stage, {spec.component: spec.component})
+    # a recorded current is held, as the converter's command is; a recorded current or
+    # acceleration the cart follows is smooth, so linear between samples
+    drives = {drive: (drive, "hold" if drive == "I_c" else "linear")} if drive else {}
+    return Setup(stage, model, drives, match, estimated, None, spec.coarse_decimate, coarse)
+
+
+def make_experiment(recording: Recording, stage: str, parameters: Mapping[str, float],
+                    drive: str | None = None) -> Experiment:
+    """Check that `recording` has what `stage` needs and gather its fixed values."""
+    if stage not in STAGES:
+        raise RecordingError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}")
+    spec = STAGES[stage]
+    where = str(recording.path)
+    for name in spec.fitted:
+        if name not in recording.signals:
+            raise RecordingError(f"{where}: stage {stage} needs the recorded signal {name!r}; "
+                                 f"columns: {', '.join(('time', *recording.signals))}")
+    chosen = _choose_drive(recording, spec, drive)
+    fixed = dict(parameters)
+    fixed.update(check_parameters(recording.parameters, where))
+    fixed = with_initial_states(fixed, recording.initial, where)
+    return prepare(recording, stage_setup(stage, chosen), fixed)
+
+
+def _choose_drive(recording: Recording, spec: Stage, drive: str | None) -> str:
+    if drive is not None:
+        if drive not in spec.drives:
+            raise RecordingError(f"stage {spec.name} is driven by {' or '.join(d for d in spec.drives if d)}, "
+                                 f"not {drive!r}")
+        if drive and drive not in recording.signals:
+            raise RecordingError(f"{recording.path}: no column {drive!r} to drive the {spec.name} stage")
+        return drive
+    for candidate in spec.drives:
+        if candidate == "" or candidate in recording.signals:
+            return candidate
+    raise RecordingError(f"{recording.path}: stage {spec.name} needs a drive signal "
+                         f"({' or '.join(spec.drives)}); columns: {', '.join(('time', *recording.signals))}")

@@ -1,0 +1,196 @@
+"""A model: component FMUs, the connections between them, and the names a fit uses.
+
+Everything pendfmu simulates or fits is a Model: one of its own components (the current
+stage's CurrentLoop), a chain of them (CurrentLoop -> Cart), a user's FMU exported from
+Simulink or OpenModelica (`Model.from_fmu`), or an SSP system of several FMUs
+(`Model.from_ssp`). The fit and the simulator see only this interface.
+
+Names. A variable is named `Instance.variable`; it is also known by its bare name where
+that is unambiguous. Pendfmu's own rig is the exception it was built on: its components
+share physical quantities by name (m_p and l are one mass and one length for Cart and
+Pendulum), so in a model made of them (`shared=True`) a bare parameter name sets every
+component that has it, as MODEL.md specifies. In any other model a bare name that two
+components have is ambiguous, and using it is an error that lists the qualified names.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pendfmu.errors import BadInput
+from pendfmu.simulator.component import unpacked_fmu
+from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
+
+
+class ModelError(BadInput):
+    """A model that cannot be used as asked (a name it lacks, an FMU it cannot run)."""
+
+
+@dataclass(frozen=True)
+class Port:
+    """One variable of one instance."""
+
+    instance: str
+    variable: str
+
+    def __str__(self) -> str:
+        return f"{self.instance}.{self.variable}"
+
+
+@dataclass(frozen=True)
+class Variable:
+    """What a model description declares about a variable a fit may use."""
+
+    port: Port
+    causality: str  # parameter | input | output
+    start: float | None
+    low: float | None
+    high: float | None
+    unit: str
+
+
+@dataclass(frozen=True)
+class Instance:
+    """One FMU in a model: `fmu` is its file, or None for pendfmu's component `kind`
+    (built from source when missing)."""
+
+    name: str
+    kind: str
+    fmu: Path | None = None
+
+    def description(self):
+        return unpacked_fmu(self.kind if self.fmu is None else self.name, self.fmu)[1]
+
+
+@dataclass
+class Model:
+    """Instances, connections, and the variables a fit names (module docstring)."""
+
+    name: str
+    instances: dict[str, Instance]
+    connections: list[Connection] = field(default_factory=list)
+    shared: bool = False  # pendfmu's rig: a bare parameter name sets every component having it
+
+    def __post_init__(self) -> None:
+        self.variables: dict[Port, Variable] = {}
+        for instance in self.instances.values():
+            md = instance.description()
+            if md.coSimulation is None:
+                raise ModelError(f"{instance.fmu or instance.kind}: a Model-Exchange-only FMU (it has no "
+                                 f"Co-Simulation interface); pendfmu steps FMUs by co-simulation: export it "
+                                 f"with Co-Simulation (both interfaces in one FMU are fine)")
+            for v in md.modelVariables:
+                if v.type == "Real" and v.causality in ("parameter", "input", "output"):
+                    port = Port(instance.name, v.name)
+                    self.variables[port] = Variable(port, v.causality, _number(v.start), _number(v.min),
+                                                    _number(v.max), v.unit or "")
+        connected = {Port(c.target, c.input) for c in self.connections}
+        self.order = stepping_order({n: i.kind for n, i in self.instances.items()}, self.connections)
+        self.loops = algebraic_loops(self.connections, {n: _feedthrough(i) for n, i in self.instances.items()}) \
+            if self.connections else []
+        self._names: dict[str, dict[str, list[Port]]] = {}
+        for causality in ("parameter", "input", "output"):
+            ports = [p for p, v in self.variables.items() if v.causality == causality
+                     and not (causality == "input" and p in connected)]
+            self._names[causality] = _names(ports, self.shared and causality == "parameter")
+
+    # -- construction
+
+    @classmethod
+    def from_fmu(cls, path: str | Path, name: str | None = None) -> Model:
+        """A model of one FMU file (one instance, named by its model identifier)."""
+        path = Path(path)
+        if not path.is_file():
+            raise ModelError(f"{path}: no such FMU file")
+        try:
+            md = unpacked_fmu(path.stem, path)[1]
+        except Exception as error:  # not a zip, no modelDescription.xml, not FMI 2.0 ...
+            raise ModelError(f"{path}: cannot read this FMU ({type(error).__name__}: {error})") from None
+        if md.fmiVersion != "2.0":
+            raise ModelError(f"{path}: FMI {md.fmiVersion}; pendfmu runs FMI 2.0 FMUs")
+        kind = (md.coSimulation or md.modelExchange).modelIdentifier
+        return cls(name or kind, {kind: Instance(kind, kind, path)})
+
+    @classmethod
+    def of_components(cls, name: str, kinds: Mapping[str, str], connections: Sequence[Connection] = ()) -> Model:
+        """A model of pendfmu's own components (instance -> component type)."""
+        return cls(name, {n: Instance(n, k) for n, k in kinds.items()}, list(connections), shared=True)
+
+    # -- names
+
+    def names(self, causality: str) -> list[str]:
+        """The names a fit may use for the model's parameters, free inputs or outputs."""
+        return list(self._names[causality])
+
+    def resolve(self, name: str, causality: str) -> list[Port]:
+        """The ports a name stands for; an unknown or ambiguous name is a ModelError that
+        lists the valid names."""
+        found = self._names[causality].get(name)
+        if found is None:
+            valid = ", ".join(n for n in self._names[causality] if "." not in n or self._ambiguous(n, causality))
+            raise ModelError(f"{self.name}: no {_NOUN[causality]} {name!r}{_suggestion(name, self._names[causality])}; "
+                             f"valid: {valid or 'none'}")
+        if not found:
+            qualified = [n for n in self._names[causality] if n.endswith(f".{name}")]
+            raise ModelError(f"{self.name}: {_NOUN[causality]} {name!r} is in several components; name one of "
+                             f"{', '.join(qualified)}")
+        return found
+
+    def _ambiguous(self, qualified: str, causality: str) -> bool:
+        return self._names[causality].get(qualified.split(".", 1)[1]) == []
+
+    def split(self, values: Mapping[str, float]) -> dict[str, dict[str, float]]:
+        """Parameter values by instance. Names the model does not have are left out (a
+        rig parameter dictionary covers every component; only the model's are used)."""
+        per: dict[str, dict[str, float]] = {name: {} for name in self.instances}
+        for name, value in values.items():
+            for port in self._names["parameter"].get(name) or ():
+                per[port.instance][port.variable] = value
+        return per
+
+    def port(self, name: str, causality: str) -> Port:
+        (found,) = self.resolve(name, causality)
+        return found
+
+
+_NOUN = {"parameter": "parameter", "input": "input", "output": "output"}
+
+
+def _names(ports: Iterable[Port], shared: bool) -> dict[str, list[Port]]:
+    """name -> ports: every qualified name, and each bare name with its ports (all of them
+    when shared, else the one port if unique and [] when ambiguous)."""
+    names: dict[str, list[Port]] = {}
+    bare: dict[str, list[Port]] = {}
+    for port in ports:
+        names[str(port)] = [port]
+        bare.setdefault(port.variable, []).append(port)
+    for name, found in bare.items():
+        names[name] = found if shared or len(found) == 1 else []
+    return names
+
+
+def _suggestion(name: str, known: Iterable[str]) -> str:
+    import difflib
+
+    close = difflib.get_close_matches(name, list(known), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _number(value) -> float | None:
+    try:
+        return None if value is None or value == "" else float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def _feedthrough(instance: Instance) -> dict[str, set[str]]:
+    md = instance.description()
+    inputs = {v.name for v in md.modelVariables if v.causality == "input"}
+    result = {}
+    for unknown in md.outputs:
+        dependencies = unknown.dependencies if unknown.dependencies is not None else None
+        result[unknown.variable.name] = inputs if dependencies is None else {d.name for d in dependencies
+                                                                               if d.name in inputs}
+    return result

@@ -1,0 +1,183 @@
+"""Replay a recording's drives through a model, fast: what every fit evaluation runs.
+
+A fit simulates the same recording thousands of times with different parameter values,
+so a Replay keeps its FMU instances (reset per run, or instantiated anew where an FMU
+cannot reset) and steps each with the native loop (native.py). The model's instances run
+one after the other in stepping order, each over the whole recording: an instance's
+inputs are either recorded drives or the outputs of instances before it, passed with
+their slope over each step where the receiving FMU can interpolate inputs (linear, as the
+co-simulation master couples them) and held otherwise. An instance whose parameters, and
+whose predecessors' parameters, did not change since the last run is not run again (in
+the cart stage the current loop runs once per current-loop parameter set).
+
+What an FMU declares is honoured: input derivatives only where canInterpolateInputs,
+an uneven time grid only where canHandleVariableCommunicationStepSize. Models with an
+algebraic loop are the co-simulation master's (master.py), not a Replay's.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pendfmu.errors import FMUError
+from pendfmu.simulator.component import ComponentFMU
+from pendfmu.simulator.model import Model, ModelError, Port
+from pendfmu.simulator.native import run_single
+
+INTERPOLATIONS = ("hold", "linear")
+
+
+@dataclass(frozen=True)
+class Drive:
+    """A model input driven by a recorded signal, held or linear between samples."""
+
+    values: np.ndarray
+    interpolation: str = "hold"
+
+
+# (times, drives, parameter values) -> (communication points, index of each sample among them)
+Refinement = Callable[[np.ndarray, Mapping[str, np.ndarray], Mapping[str, float]], tuple[np.ndarray, np.ndarray]]
+
+
+def _slopes(times: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The slope of each step towards the next point (the last one is unused)."""
+    return np.append(np.diff(values) / np.diff(times), 0.0)
+
+
+class Replay:
+    """Runs `model` at a recording's time stamps (every `decimate`-th one, for a cheaper
+    first look in a global search), its inputs driven by `drives` (input name -> Drive).
+    `refine`, where given, adds communication points between samples (the cart stage
+    steps the settling current on a finer grid)."""
+
+    def __init__(self, model: Model, time: np.ndarray, drives: Mapping[str, Drive], decimate: int = 1,
+                 refine: Refinement | None = None):
+        if any(len(group) > 1 for group in model.order):
+            raise ModelError(f"{model.name}: its components feed each other ({'; '.join(map(str, model.loops))}); "
+                             f"a fit replays acyclic models only: simulate it with the co-simulation master")
+        self.model = model
+        self.index = np.arange(0, len(time), max(1, int(decimate)))
+        self.times = np.asarray(time, dtype=float)[self.index]
+        self.drives = {model.port(name, "input"): Drive(np.asarray(d.values, dtype=float)[self.index], d.interpolation)
+                       for name, d in drives.items()}
+        for port, drive in self.drives.items():
+            if drive.interpolation not in INTERPOLATIONS:
+                raise ModelError(f"{port}: interpolation must be hold or linear, not {drive.interpolation!r}")
+        self.refine = refine
+        self._fmus: dict[str, ComponentFMU] = {}
+        self._kept: dict[str, tuple[bytes, dict[Port, np.ndarray]]] = {}
+
+    # -- instances
+
+    def _fmu(self, name: str, parameters: Mapping[str, float]) -> ComponentFMU:
+        instance = self.model.instances[name]
+        fmu = self._fmus.get(name)
+        start = float(self.times[0])
+        if fmu is None:
+            label = instance.kind if instance.fmu is None else name
+            fmu = self._fmus[name] = ComponentFMU(label, parameters, start_time=start, fmu=instance.fmu, instance=name)
+        else:
+            fmu.restart(parameters, start_time=start)
+        return fmu
+
+    # -- running
+
+    def simulate(self, values: Mapping[str, float], outputs: Sequence[str]) -> dict[str, np.ndarray]:
+        """The named outputs at the recording's (decimated) time stamps for these values."""
+        wanted = {name: self.model.port(name, "output") for name in outputs}
+        points, samples = self._grid(values)
+        per = self.model.split(values)
+        signals: dict[Port, np.ndarray] = {}
+        upstream: dict[str, bytes] = {}
+        for (name,) in self.model.order:
+            feeding = {Port(c.source, c.output) for c in self.model.connections if c.source == name}
+            needed = sorted({p for p in wanted.values() if p.instance == name} | feeding, key=str)
+            sources = [c.source for c in self.model.connections if c.target == name]
+            key = _key(per[name], [upstream[s] for s in sources], points)
+            upstream[name] = key
+            kept = self._kept.get(name)
+            if kept is not None and kept[0] == key and all(p in kept[1] for p in needed):
+                signals.update(kept[1])
+                continue
+            result = self._run(name, per[name], points, samples, signals, needed)
+            self._kept[name] = (key, result)
+            signals.update(result)
+        return {name: signals[port][samples] for name, port in wanted.items()}
+
+    def _grid(self, values: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        if self.refine is None:
+            return self.times, np.arange(len(self.times))
+        drives = {str(port): drive.values for port, drive in self.drives.items()}
+        return self.refine(self.times, drives, values)
+
+    def _run(self, name: str, parameters: Mapping[str, float], points: np.ndarray, samples: np.ndarray,
+             signals: Mapping[Port, np.ndarray], outputs: list[Port]) -> dict[Port, np.ndarray]:
+        fmu = self._fmu(name, parameters)
+        steps = np.diff(points)
+        if not fmu.can_vary_step and len(steps) and np.ptp(steps) > 1e-9 * float(np.mean(steps)):
+            raise ModelError(f"{name}: the FMU cannot vary its communication step "
+                             f"(canHandleVariableCommunicationStepSize is false), and the recording's time stamps "
+                             f"are not evenly spaced")
+        names, columns, slopes = [], [], []
+        for port, drive in self.drives.items():
+            if port.instance == name:
+                names.append(port.variable)
+                column = _on_grid(drive, self.times, points, samples)
+                columns.append(column)
+                linear = drive.interpolation == "linear"
+                if linear and not fmu.can_interpolate_inputs:
+                    raise ModelError(f"{port}: linear interpolation asked for, but the FMU cannot interpolate "
+                                     f"inputs (canInterpolateInputs is false): its inputs are held")
+                slopes.append(_slopes(points, column) if linear else np.zeros(len(points)))
+        for c in self.model.connections:
+            if c.target == name:
+                names.append(c.input)
+                column = signals[Port(c.source, c.output)]
+                columns.append(column)
+                slopes.append(_slopes(points, column) if fmu.can_interpolate_inputs else np.zeros(len(points)))
+        matrix = np.column_stack(columns) if columns else np.empty((len(points), 0))
+        interpolate = any(np.any(s) for s in slopes)
+        result, failed = run_single(fmu.slave, points, [fmu.vr[n] for n in names], matrix,
+                                    [fmu.vr[p.variable] for p in outputs],
+                                    np.column_stack(slopes) if interpolate else None)
+        if failed >= 0:
+            said = "; ".join(fmu.messages[-3:])
+            raise FMUError(f"{name} at t = {points[failed]:.9g} s: {said}", instance=name, time=float(points[failed]),
+                           messages=fmu.messages[-3:])
+        return {port: result[:, j] for j, port in enumerate(outputs)}
+
+    def close(self) -> None:
+        for fmu in self._fmus.values():
+            fmu.free()
+        self._fmus.clear()
+        self._kept.clear()
+
+    def __getstate__(self):
+        """Sent to worker processes without its FMU instances; each worker makes its own."""
+        state = dict(self.__dict__)
+        state["_fmus"] = {}
+        state["_kept"] = {}
+        return state
+
+
+def _on_grid(drive: Drive, times: np.ndarray, points: np.ndarray, samples: np.ndarray) -> np.ndarray:
+    """A drive's values at the communication points: the sample's own at samples; between
+    them held (the last sample's) or linear."""
+    if len(points) == len(times):
+        return drive.values
+    if drive.interpolation == "linear":
+        return np.interp(points, times, drive.values)
+    return drive.values[np.searchsorted(samples, np.arange(len(points)), side="right") - 1]
+
+
+def _key(parameters: Mapping[str, float], upstream: Sequence[bytes], points: np.ndarray) -> bytes:
+    """What an instance's outputs depend on: its parameters, its predecessors' keys, the grid."""
+    digest = hashlib.sha256(repr(sorted(parameters.items())).encode())
+    for key in upstream:
+        digest.update(key)
+    digest.update(np.ascontiguousarray(points).tobytes())
+    return digest.digest()
