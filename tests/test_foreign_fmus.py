@@ -198,6 +198,16 @@ def test_above_breakaway_the_cart_approaches_its_terminal_speed_exponentially(fm
     assert np.max(np.abs(xv[:, 0] - 0.1 - x)) < 1e-10 and np.max(np.abs(xv[:, 1] - v)) < 1e-10
 
 
+def test_a_coarse_internal_step_on_a_stiff_cart_stays_stable(fmus):
+    """h_max 10 ms with m/c_v = 2 ms: the FMU shortens its substeps to the time constant."""
+    stiff = {**PLAIN, "c_v": 1000.0, "h_max": 1e-2}
+    with opened(fmus["ForeignCart"]) as unit:
+        unit.start(**stiff)
+        xv = unit.steps(np.full(50, 2.0))
+    x, v = linear_cart(2.0, 1000.0, 4.0 * 2.0 + 0.5 - 3.0, 0.0, np.arange(1, 51) * 1e-3)
+    assert np.max(np.abs(xv[:, 1] - v)) < 1e-3 * v[-1] and np.max(np.abs(xv[:, 0] - x)) < 1e-3 * x[-1]
+
+
 @pytest.mark.parametrize("u", [1.0, 1.125, -1.375, 0.0])
 def test_at_or_below_breakaway_the_cart_does_not_move_at_all(fmus, u):
     """|k_u u + F_0| <= F_s (1.125 V and -1.375 V are exactly at F_s = 5 N): x stays x0

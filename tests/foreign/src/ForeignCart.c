@@ -9,7 +9,7 @@
    active force F_A = k_u u + F_0 is constant inside it. A stuck cart therefore breaks away
    only at the start of a step (or at a stop inside it, where it reverses), and a stuck
    cart stays stuck for the whole step. A sliding cart is integrated with classic RK4 on
-   equal substeps no longer than h_max; the sliding equation for direction s is continued
+   equal substeps no longer than h_max (nor than the viscous time constant m/c_v); the sliding equation for direction s is continued
    past v = 0, so when a substep ends with s v <= 0 the stop is located by bisection on the
    length of a single RK4 step from the substep's start (to 1e-13 s), v is set to exactly
    0 there and the mode is chosen again. At v = 0 the sliding friction equals F_s for any
@@ -117,13 +117,18 @@ static fmi2Status initialize(Instance *c) {
     return fmi2OK;
 }
 
+/* Substeps no longer than h_max, nor than the viscous time constant m/c_v (RK4 would be
+   inaccurate, then unstable, beyond it), dividing the step evenly. */
 static fmi2Status do_step(Instance *c, double h) {
     double force = active_force(c);
-    double n = ceil(h / R(VR_H_MAX) - 1e-9);
+    double longest = R(VR_H_MAX);
+    if (R(VR_C_V) * longest > R(VR_M))
+        longest = R(VR_M) / R(VR_C_V);
+    double n = ceil(h / longest - 1e-9);
     if (n < 1.0)
         n = 1.0;
     if (n > 1e9)
-        return fail(c, "fmi2DoStep: a step of %g s would take %g internal steps of h_max = %g s", h, n, R(VR_H_MAX));
+        return fail(c, "fmi2DoStep: a step of %g s would take %g internal steps of %g s", h, n, longest);
     double dt = h / n;
     for (long k = 0; k < (long)n; k++) {
         substep(c, force, dt);
@@ -131,6 +136,9 @@ static fmi2Status do_step(Instance *c, double h) {
             break; /* stuck for the rest of the step */
     }
     MODE = mode_at(c, force);
+    if (!isfinite(R(VR_X)) || !isfinite(R(VR_V)))
+        return fail(c, "fmi2DoStep: the solution is not finite at t = %g (x = %g, v = %g); reduce h_max",
+                    c->d.time + h, R(VR_X), R(VR_V));
     return fmi2OK;
 }
 
