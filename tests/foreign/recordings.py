@@ -14,8 +14,8 @@ encoder resolution and quantizer, the known mass, the initial state).
 
 Reading them needs the engine's generic signal names (issue 13): pendfmu's recording
 reader accepts only its own components' names today (``I_c, I, x, v, a, F_A, phi, w,
-alpha, T_A``) and its own parameter names, so `pendfmu.read_recording` refuses the column
-``u`` and the parameter ``m``. Until then read them with `read` (pandas and json).
+alpha, T_A``) and its own parameter names, so `pendfmu.recording.read_recording` refuses
+the column ``u`` and the parameter ``m``. Until then read them with `read` (pandas, json).
 """
 
 from __future__ import annotations
