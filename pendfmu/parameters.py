@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from pendfmu.components import COMPONENTS, Variable
@@ -69,8 +69,10 @@ def check_parameters(values: Mapping[str, object], where: str = "") -> dict[str,
     return {name: check_value(name, value, where) for name, value in values.items()}
 
 
-def read_parameters(path: str | Path) -> dict[str, float]:
-    """The checked parameter values of a parameters file."""
+def read_parameters(path: str | Path, check: Callable[[Mapping[str, object], str], dict[str, float]] | None = None
+                    ) -> dict[str, float]:
+    """The checked parameter values of a parameters file: checked against MODEL.md's
+    table, or by `check(values, file)` (a user's model checks its own names)."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -82,7 +84,7 @@ def read_parameters(path: str | Path) -> dict[str, float]:
         raise ParameterFileError(f"{path}: not valid JSON (line {error.lineno}, column {error.colno}: {error.msg})") from None
     if not isinstance(document, dict) or not isinstance(document.get("parameters"), dict):
         raise ParameterFileError(f'{path}: expected an object {{"parameters": {{"name": value, ...}}}}')
-    return check_parameters(document["parameters"], str(path))
+    return (check or check_parameters)(document["parameters"], str(path))
 
 
 def write_parameters(values: Mapping[str, float], path: str | Path, **extra: object) -> None:

@@ -1,24 +1,36 @@
-"""Fit a stage's parameters to recordings (the paper's method), or all stages in order.
+"""Fit a model's parameters to recordings: a stage of the paper's rig, all stages in
+order, or a user's FMU or SSP system.
 
     pendfmu fit current|cart|pendulum REC.csv [REC2.csv ...] [--params P.json] --out P2.json
     pendfmu fit all DIR [--params P.json] --out P2.json
+    pendfmu fit --fmu X.fmu REC.csv [...] --free NAME ... [--drive INPUT[=COLUMN] ...]
+                [--match OUTPUT[=COLUMN] ...] [--params P.json] --out R.json
+    pendfmu fit --system S.ssp REC.csv [...] --free NAME ... (as --fmu)
 
-Recordings of one stage are fitted jointly with shared parameters; each recording's
-sidecar fixes its own values (e.g. m_p = 0 for the cart without pendulum). `fit all`
-sorts a folder's recordings by their signals (I_c and I: current; x: cart; phi:
-pendulum; x and phi: predicted with the result, not fitted).
+Recordings are fitted jointly with shared parameters; each recording's sidecar fixes its
+own values (e.g. m_p = 0 for the cart without pendulum). `fit all` sorts a folder's
+recordings by their signals (I_c and I: current; x: cart; phi: pendulum; x and phi:
+predicted with the result, not fitted). A user's model is driven and matched by name
+(an input with a recorded column of the same name is driven by it, an output with one is
+compared with it) unless --drive and --match say otherwise; names are the FMU's variable
+names, `Component.name` in a system.
 """
 
 from __future__ import annotations
 
 import argparse
 
-HELP = "fit parameters to recordings (stages: current, cart, pendulum, all)"
+HELP = "fit parameters to recordings (stages: current, cart, pendulum, all; or --fmu / --system)"
+STAGE_NAMES = ("current", "cart", "pendulum", "all")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("stage", choices=("current", "cart", "pendulum", "all"))
-    parser.add_argument("recordings", nargs="+", help="recordings (CSV + sidecar, or .mat); for 'all' one folder")
+    parser.add_argument("items", nargs="+", metavar="STAGE|RECORDING",
+                        help="a stage (current, cart, pendulum, all) then its recordings (CSV + sidecar, or .mat; "
+                             "for 'all' one folder); with --fmu or --system, recordings only")
+    model = parser.add_mutually_exclusive_group()
+    model.add_argument("--fmu", metavar="X.fmu", help="fit this FMU (FMI 2.0 Co-Simulation) instead of a stage")
+    model.add_argument("--system", metavar="S.ssp", help="fit this SSP system instead of a stage")
     parser.add_argument("--params", help="known parameter values, and the start of the fitted ones")
     parser.add_argument("--out", required=True, help="result: parameters, stderr, ci95, fit statistics (JSON)")
     parser.add_argument("--report", help="write an HTML report with figures into this folder")
@@ -26,7 +38,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--free", nargs="+", action="extend", default=[], metavar="NAME", help="fit these too")
     parser.add_argument("--fix", nargs="+", action="extend", default=[], metavar="NAME", help="keep these at their given values")
     parser.add_argument("--bounds", nargs="+", action="extend", default=[], metavar="NAME=LOW:HIGH", help="search bounds")
-    parser.add_argument("--drive", choices=("I_c", "I", "a"), help="the recorded signal that drives the stage")
+    parser.add_argument("--drive", nargs="+", action="extend", metavar="INPUT[=COLUMN]",
+                        help="a stage: the recorded signal that drives it (I_c, I or a); a model: its inputs driven "
+                             "by recorded columns (default: each input with a column of its name)")
+    parser.add_argument("--match", nargs="+", action="extend", metavar="OUTPUT[=COLUMN]",
+                        help="a model: its outputs compared with recorded columns (default: each output with a "
+                             "column of its name)")
+    parser.add_argument("--initial", nargs="+", action="extend", default=[], metavar="SIGNAL=PARAMETER",
+                        help="a model: the parameter a sidecar's initial value of SIGNAL sets (default: an output "
+                             "x sets a parameter x0 where the model has one)")
+    parser.add_argument("--interpolation", choices=("hold", "linear"), default="hold",
+                        help="a model: its drives between samples, held (default) or linear (where the FMU can "
+                             "interpolate inputs)")
     parser.add_argument("--cost", choices=("plain", "quantized"), default="plain",
                         help="residuals: plain least squares, or zero inside each reading's quantization step")
     parser.add_argument("--no-global", action="store_true", help="skip the global search (local refinement only)")
@@ -70,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
     from pendfmu.cli.outputs import check_output_file, check_output_folder
     from pendfmu.errors import EXIT_SUSPICIOUS, Suspicious, UsageError
     from pendfmu.fitting.identification import fit, fit_all, fit_current
+    from pendfmu.fitting.models import checked_values
     from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.parameters import read_parameters, write_parameters
 
@@ -77,16 +101,22 @@ def run(args: argparse.Namespace) -> int:
     if args.report:
         check_output_folder(args.report, "--report")
     path = check_output_file(args.checkpoint or f"{args.out}.checkpoint", "--checkpoint")
+    model = _model_and_recordings(args)
     if args.stage == "all" and len(args.recordings) != 1:
         raise UsageError("fit all takes one folder of recordings")
-    params = read_parameters(args.params) if args.params else {}
+    if model is None:
+        params = read_parameters(args.params) if args.params else {}
+    else:
+        params = read_parameters(args.params, lambda values, where: checked_values(model, values, where)) \
+            if args.params else {}
     options = GlobalOptions(enabled=not args.no_global, workers=args.workers, scheduler=args.scheduler)
     bounds = _bounds(args.bounds)
     files = sorted(Path(args.recordings[0]).iterdir()) if args.stage == "all" and Path(args.recordings[0]).is_dir() \
         else [Path(r) for r in args.recordings]
     files = [f for f in files if f.suffix.lower() in (".csv", ".mat") and f.is_file()]
     key = fingerprint(args.stage, sorted(params.items()), args.seed, args.cost, args.free, args.fix,
-                      sorted(bounds.items()), args.drive, args.no_global, files=files)
+                      sorted(bounds.items()), args.drive, args.match, args.initial, args.interpolation, args.no_global,
+                      files=files + ([Path(args.fmu or args.system)] if model is not None else []))
     checkpoint = Checkpoint.load(path, key) if args.resume else Checkpoint(path, key)
     printed: list[str] = []
 
@@ -99,10 +129,14 @@ def run(args: argparse.Namespace) -> int:
     common = dict(seed=args.seed, cost=args.cost, global_search=options, checkpoint=checkpoint, warn=warn,
                   strict=args.strict, uncertainty=args.uncertainty, replicates=args.replicates)
     try:
-        if args.stage == "all":
+        if model is not None:
+            result = fit(model, args.recordings, params, free=args.free, fix=args.fix, bounds=bounds,
+                         drive=args.drive, match=args.match, initial=_pairs(args.initial, "--initial"),
+                         interpolation=args.interpolation, **common)
+        elif args.stage == "all":
             result = fit_all(args.recordings[0], params, **common)
         else:
-            common.update(fix=args.fix, bounds=bounds, drive=args.drive)
+            common.update(fix=args.fix, bounds=bounds, drive=_stage_drive(args))
             if args.stage == "current" and not args.free:
                 result = fit_current(args.recordings, params, **common)
             else:
@@ -130,6 +164,53 @@ def run(args: argparse.Namespace) -> int:
     if result.warnings:
         print(f"{len(result.warnings)} warning(s); they are also in {args.out} (fit.warnings)", file=sys.stderr)
     return EXIT_SUSPICIOUS if args.strict and result.warnings else 0  # the result is written either way
+
+
+def _model_and_recordings(args: argparse.Namespace):
+    """Split the positionals: a stage and recordings, or (with --fmu/--system) recordings;
+    the user's Model, or None for a stage."""
+    from pendfmu.errors import UsageError
+    from pendfmu.fitting.models import load_model
+
+    if args.fmu or args.system:
+        args.stage, args.recordings = None, list(args.items)
+        if args.items[0] in STAGE_NAMES:
+            raise UsageError(f"--{'fmu' if args.fmu else 'system'} fits that model: leave out the stage "
+                             f"{args.items[0]!r}")
+        return load_model(args.fmu or args.system)
+    args.stage, args.recordings = args.items[0], list(args.items[1:])
+    if args.stage not in STAGE_NAMES:
+        raise UsageError(f"{args.stage!r} is not a stage ({', '.join(STAGE_NAMES)}); to fit your own model give "
+                         f"--fmu X.fmu or --system S.ssp")
+    if not args.recordings:
+        raise UsageError(f"fit {args.stage}: give its recordings")
+    for option in ("match", "initial"):
+        if getattr(args, option):
+            raise UsageError(f"--{option} is for a model (--fmu, --system); a stage matches its own signals")
+    return None
+
+
+def _stage_drive(args: argparse.Namespace) -> str | None:
+    """A stage's --drive: one recorded column, I_c, I or a."""
+    from pendfmu.errors import UsageError
+
+    if not args.drive:
+        return None
+    if len(args.drive) != 1 or args.drive[0] not in ("I_c", "I", "a"):
+        raise UsageError(f"--drive {' '.join(args.drive)}: a stage is driven by one recorded signal, I_c, I or a")
+    return args.drive[0]
+
+
+def _pairs(items: list[str], option: str) -> dict[str, str]:
+    from pendfmu.errors import UsageError
+
+    pairs = {}
+    for item in items:
+        name, _, value = item.partition("=")
+        if not (name and value):
+            raise UsageError(f"{option} {item!r}: expected NAME=VALUE")
+        pairs[name] = value
+    return pairs
 
 
 def _summary(result) -> str:

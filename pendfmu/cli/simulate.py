@@ -17,7 +17,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="output CSV")
     parser.add_argument("--step", type=float, default=2e-4, help="communication step [s] (default 0.2 ms)")
     parser.add_argument("--interpolation", choices=("hold", "linear"), default="hold",
-                        help="I_c between samples: held (zero-order hold, default) or linear")
+                        help="drives between samples: held (zero-order hold, default) or linear")
+    model = parser.add_mutually_exclusive_group()
+    model.add_argument("--fmu", metavar="X.fmu", help="simulate this FMU instead of the rig")
+    model.add_argument("--system", metavar="S.ssp", help="simulate this SSP system instead of the rig")
+    parser.add_argument("--drive", nargs="+", action="extend", metavar="INPUT[=COLUMN]",
+                        help="with --fmu/--system: inputs driven by recorded columns (default: by equal names)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -28,9 +33,28 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.step > 0:
         raise UsageError(f"--step {args.step}: the communication step must be positive")
-    parameters = read_parameters(args.params) if args.params else {}
-    recording = read_recording(args.input)
-    result = simulate_recording(parameters, recording, step=args.step, interpolation=args.interpolation)
+    if args.fmu or args.system:
+        result = _simulate_model(args)
+    else:
+        if args.drive:
+            raise UsageError("--drive is for --fmu/--system; the rig is driven by the recording's I_c")
+        parameters = read_parameters(args.params) if args.params else {}
+        recording = read_recording(args.input)
+        result = simulate_recording(parameters, recording, step=args.step, interpolation=args.interpolation)
     result.to_csv(args.out, index=False, float_format="%.17g")
     print(f"wrote {len(result)} samples of {', '.join(result.columns[1:])} to {args.out}")
     return 0
+
+
+def _simulate_model(args: argparse.Namespace):
+    """A user's FMU or SSP system driven by the recording, at the recording's time stamps
+    (the model's own communication points: --step is the rig's)."""
+    from pendfmu.fitting.models import checked_values, initial_map, load_model, mapping, read_for, simulate_model
+    from pendfmu.parameters import read_parameters
+
+    model = load_model(args.fmu or args.system)
+    parameters = read_parameters(args.params, lambda values, where: checked_values(model, values, where)) \
+        if args.params else {}
+    drive = mapping(args.drive)
+    (recording,) = read_for(model, [args.input], drive, None, initial_map(model, None))
+    return simulate_model(model, recording, parameters, drive, args.interpolation)

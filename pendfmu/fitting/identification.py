@@ -20,6 +20,8 @@ import numpy as np
 from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
 from pendfmu.components import COMPONENTS
 from pendfmu.fitting.experiment import Experiment
+from pendfmu.fitting.models import (checked_values, initial_map, load_model, mapping, model_experiments,
+                                    model_free_parameters, read_for)
 from pendfmu.fitting.stages import STAGES, make_experiment
 from pendfmu.fitting.optimizer import GlobalOptions, optimize
 from pendfmu.parameters import ParameterFileError, check_parameters
@@ -27,6 +29,7 @@ from pendfmu.fitting.plausibility import SuspiciousData, check_experiment
 from pendfmu.recording import Recording, RecordingError, read_recording
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.simulator.component import FMUError
+from pendfmu.simulator.model import Model
 from pendfmu.fitting.stiction import JOINTS, bounded_set
 from pendfmu.fitting.stiction import evidence as stiction_evidence
 from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult, flag_warnings, nrmse
@@ -133,20 +136,44 @@ def _free_parameters(stage: str, experiments: list[Experiment], free: Sequence[s
     return result
 
 
+def _user_model(model: str | Path | Model) -> Model:
+    if isinstance(model, str) and not Path(model).suffix:
+        raise ParameterFileError(f"unknown stage {model!r}; stages: {', '.join(STAGES)}, all; or an FMU (.fmu) "
+                                 f"or SSP (.ssp) file")
+    return load_model(model)
+
+
+def _listed(recordings: Sequence[str | Path | Recording]) -> list[str | Path | Recording]:
+    if not recordings:
+        raise RecordingError("no recordings given")
+    return list(recordings)
+
+
 def _start(free: list[FreeParameter], values: Mapping[str, float], experiments: list[Experiment]) -> np.ndarray:
     guesses = {e.name: e.estimated for e in experiments}
     start = [guesses[p.experiment][p.name][0] if p.experiment else values.get(p.name, p.low) for p in free]
     return unit_of(free, start)
 
 
-def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mapping[str, float] | None = None,
-        free: Sequence[str] | None = None, fix: Sequence[str] = (),
-        bounds: Mapping[str, tuple[float, float]] | None = None, seed: int = 0, drive: str | None = None,
-        cost: str = "plain", global_search: GlobalOptions | None = None, progress: bool | None = None,
+def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
+        params: Mapping[str, float] | None = None, free: Sequence[str] | None = None, fix: Sequence[str] = (),
+        bounds: Mapping[str, tuple[float, float]] | None = None, seed: int = 0,
+        drive: str | Mapping[str, str] | Sequence[str] | None = None, cost: str = "plain",
+        global_search: GlobalOptions | None = None, progress: bool | None = None,
         checkpoint: Checkpoint | None = None, warn: Callable[[str], None] | None = None,
         strict: bool = False, uncertainty: str = "bootstrap", replicates: int = REPLICATES,
-        upstream: Sequence[Mapping[str, float]] | None = None) -> FitResult:
-    """Fit `stage` ('current', 'cart' or 'pendulum') to one or more recordings jointly.
+        upstream: Sequence[Mapping[str, float]] | None = None,
+        match: Mapping[str, str] | Sequence[str] | None = None, initial: Mapping[str, str] | None = None,
+        interpolation: str = "hold") -> FitResult:
+    """Fit a model's parameters to one or more recordings jointly.
+
+    `model` is one of the paper's stages ('current', 'cart' or 'pendulum', with its own
+    drives, matches and free parameters: stages.py; `drive` then names the recorded
+    column that drives it), or a user's model: an FMU or SSP file, or a Model
+    (models.py: `drive` and `match` map model inputs and outputs to recorded columns,
+    {name: column} or ["name=column", ...], by default by equal names; `free` names the
+    parameters to fit; `initial` maps a signal of the sidecars' "initial" to the
+    parameter of its initial value; `interpolation` is how drives go between samples).
 
     `uncertainty` chooses the intervals (uncertainty.py): "bootstrap" (calibrated, the
     default; `replicates` refits) or "jacobian" (fast, too narrow on quantized data).
@@ -158,10 +185,18 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
     Recordings that look mis-scaled or undescribed (plausibility.py) are reported through
     `warn` before the fit starts, and kept in the result's warnings; with `strict` they
     raise SuspiciousData instead, before any simulation."""
-    if stage not in STAGES:
-        raise ParameterFileError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}, all")
-    values = {**rig_defaults(), **check_parameters(params or {})}
-    experiments = [make_experiment(r, stage, values, drive) for r in _recordings(recordings)]
+    preset = isinstance(model, str) and model in STAGES
+    if preset:
+        stage = model
+        values = {**rig_defaults(), **check_parameters(params or {})}
+        experiments = [make_experiment(r, stage, values, drive) for r in _recordings(recordings)]
+    else:
+        user = _user_model(model)
+        stage = user.name
+        drives, matches, initials = mapping(drive), mapping(match), initial_map(user, initial)
+        values = {**user.defaults(), **checked_values(user, params or {})}
+        read = read_for(user, _listed(recordings), drives, matches, initials)
+        experiments = model_experiments(user, read, values, drives, matches, initials, interpolation)
     names = [e.name for e in experiments]
     if len(set(names)) != len(names):
         raise RecordingError(f"two recordings share the name {sorted(n for n in names if names.count(n) > 1)[0]!r}")
@@ -171,12 +206,15 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
             warn(warning)
     if strict and data_warnings:
         raise SuspiciousData(data_warnings)
-    free_parameters = _free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values)
+    if preset:
+        free_parameters = _free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values)
+    else:
+        free_parameters = model_free_parameters(user, list(free or []), list(fix), dict(bounds or {}), values)
     options = global_search or GlobalOptions()
     residuals = Residuals(experiments, free_parameters, values, cost)
-    spec = STAGES[stage]
-    coarse_values = {**values, **({"solver_step": spec.coarse_solver_step} if spec.coarse_solver_step else {})}
-    coarse = Residuals(experiments, free_parameters, coarse_values, cost, decimate=spec.coarse_decimate)
+    setup = experiments[0].setup
+    coarse = Residuals(experiments, free_parameters, {**values, **setup.coarse_values}, cost,
+                       decimate=setup.coarse_decimate)
     bar = Progress(stage, options.maxiter if options.enabled else 0, progress)
     cache = checkpoint.cache(f"{stage}:{','.join(names)}") if checkpoint else {}
     try:
@@ -203,7 +241,7 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
                          f"(last: {residuals.last_failure or coarse.last_failure})")
         found = physical(free_parameters, outcome.u)
         fitted = {p.name: float(v) for p, v in zip(free_parameters, found) if p.experiment is None}
-        if stage in JOINTS:
+        if preset and stage in JOINTS:
             try:
                 notes += _bound_stiction(stage, residuals, outcome.u, estimates, fitted, assessed.values)
             except FMUError as error:  # the result is written regardless
@@ -218,15 +256,15 @@ def fit(stage: str, recordings: Sequence[str | Path | Recording], params: Mappin
         bar.close()
         residuals.close()
         coarse.close()
-    initial: dict[str, dict[str, float]] = {}
+    initial_states: dict[str, dict[str, float]] = {}
     for p, value in zip(free_parameters, found):
         if p.experiment is not None:
-            initial.setdefault(p.experiment, {})[p.name] = float(value)
+            initial_states.setdefault(p.experiment, {})[p.name] = float(value)
     final = {**values, **fitted}
     warnings += flag_warnings(estimates)
     warnings += [note for note in notes if note.startswith("the local refinement stopped")]
     return FitResult(stage, final, estimates, correlation, 0.5 * float(outcome.residual @ outcome.residual),
-                     nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial, notes,
+                     nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial_states, notes,
                      warnings=warnings, uncertainty=assessed.summary, replicates=assessed.replicates)
 
 

@@ -239,11 +239,13 @@ def _best_local(residuals: Residuals, starts: list[np.ndarray], messages: list[s
         messages.append(note)
     if len(found) > 1:
         other = found[1 - best][0]
-        if best == 1:
+        if other <= cost * (1 + 1e-3) or np.allclose(found[1 - best][1], u, atol=1e-3):
+            pass  # the same optimum, reached twice
+        elif best == 1:
             messages.append(f"the local refinement from the starting values ended lower than from the global "
                             f"search's best (cost {cost:.6g} against {other:.6g}): the cost has several minima; "
                             f"the lower is kept")
-        elif other > cost * (1 + 1e-3) and not np.allclose(found[1][1], u, atol=1e-3):
+        else:
             messages.append(f"the local refinement from the starting values ended in another minimum (cost "
                             f"{other:.6g} against {cost:.6g}): the cost has several minima; the lower is kept")
     return u, jacobian, residual

@@ -76,13 +76,13 @@ from pathlib import Path
 from pendfmu.recording.csv_reader import _read_csv
 from pendfmu.recording.mat_reader import _read_mat
 from pendfmu.recording.model import Recording, SignalInfo, quantize
-from pendfmu.recording.schema import (INITIAL_NAMES, MAT_TIME_NAMES, PARAMETER_NAMES, QUANTIZERS, SIGNAL_NAMES,
-                                      RecordingError, _bytes)
+from pendfmu.recording.schema import (INITIAL_NAMES, MAT_TIME_NAMES, PARAMETER_NAMES, QUANTIZERS, RIG, SIGNAL_NAMES,
+                                      RecordingError, Vocabulary, _bytes)
 from pendfmu.recording.sidecar import _read_sidecar
 from pendfmu.recording.writer import write_recording
 
-__all__ = ["INITIAL_NAMES", "MAT_TIME_NAMES", "MAX_BYTES", "PARAMETER_NAMES", "QUANTIZERS", "SIGNAL_NAMES",
-           "Recording", "RecordingError", "SignalInfo", "quantize", "read_recording", "write_recording"]
+__all__ = ["INITIAL_NAMES", "MAT_TIME_NAMES", "MAX_BYTES", "PARAMETER_NAMES", "QUANTIZERS", "RIG", "SIGNAL_NAMES",
+           "Recording", "RecordingError", "SignalInfo", "Vocabulary", "quantize", "read_recording", "write_recording"]
 
 
 MAX_BYTES: int = 2 * 1024**3
@@ -90,8 +90,11 @@ MAX_BYTES: int = 2 * 1024**3
 before reading them, rather than letting the machine swap."""
 
 
-def read_recording(path: str | os.PathLike, max_bytes: int | None = None) -> Recording:
+def read_recording(path: str | os.PathLike, max_bytes: int | None = None, vocabulary: Vocabulary = RIG) -> Recording:
     """Read a recording (``.csv`` or MATLAB v5 ``.mat``) and its optional sidecar JSON.
+
+    `vocabulary` gives the names it may use: MODEL.md's (the default), or those of a
+    user's model (``Model.vocabulary()``).
 
     Files above `max_bytes` (default :data:`MAX_BYTES`) are refused before reading:
     parsing needs memory comparable to the file size, and a clear error beats swapping.
@@ -111,7 +114,7 @@ def read_recording(path: str | os.PathLike, max_bytes: int | None = None) -> Rec
     if suffix not in (".csv", ".mat"):
         raise RecordingError(f"{src}: unsupported file type {path.suffix!r}; "
                              f"a recording is a .csv or a MATLAB .mat file")
-    sidecar = _read_sidecar(path.with_suffix(".json"))
+    sidecar = _read_sidecar(path.with_suffix(".json"), vocabulary)
     if size == 0:
         raise RecordingError(f"{src}: empty file")
     if suffix == ".csv":

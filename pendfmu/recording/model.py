@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.recording.schema import RecordingError, SIGNAL_NAMES, _checked_values, _initial_problem, _noise_problem, _parameter_problem, _quantizer_problem, _resolution_problem, _suggest
+from pendfmu.recording.schema import RIG, RecordingError, Vocabulary, _checked_values, _noise_problem, _quantizer_problem, _resolution_problem, _suggest
 
 
 @dataclass(frozen=True)
@@ -54,6 +54,7 @@ class Recording:
     initial: dict[str, float] = field(default_factory=dict)
     ignored: tuple[str, ...] = ()
     sidecar: Path | None = None  # the sidecar file it was read with, if any
+    vocabulary: Vocabulary = field(default=RIG, repr=False)  # the names it may use (schema.Vocabulary)
 
     def __post_init__(self) -> None:
         path = None if self.path is None else Path(self.path)
@@ -64,9 +65,10 @@ class Recording:
         _check_time(time, src, "time", where)
         signals: dict[str, np.ndarray] = {}
         for name, values in dict(self.signals).items():
-            if name not in SIGNAL_NAMES:
-                raise RecordingError(f"{src}: {name!r} is not a signal name{_suggest(name, SIGNAL_NAMES)}; "
-                                     f"valid: {', '.join(SIGNAL_NAMES)}")
+            known = self.vocabulary.signals
+            if name not in known:
+                raise RecordingError(f"{src}: {name!r} is not a signal name{_suggest(name, known)}; "
+                                     f"valid: {', '.join(known)}")
             values = _as_vector(values, src, repr(name))
             _check_length(values, time, src, repr(name))
             _check_finite(values, src, repr(name), where)
@@ -81,8 +83,8 @@ class Recording:
                 raise RecordingError(f"{src}: signal_info[{name!r}] must be a SignalInfo, got {type(info).__name__}")
         if not isinstance(self.experiment, str):
             raise RecordingError(f"{src}: experiment must be a string, got {type(self.experiment).__name__}")
-        parameters = _checked_values(self.parameters, _parameter_problem, src, "parameters")
-        initial = _checked_values(self.initial, _initial_problem, src, "initial")
+        parameters = _checked_values(self.parameters, self.vocabulary.parameter_problem, src, "parameters")
+        initial = _checked_values(self.initial, self.vocabulary.initial_problem, src, "initial")
         object.__setattr__(self, "time", _frozen(time))
         object.__setattr__(self, "signals", {n: _frozen(v) for n, v in signals.items()})
         object.__setattr__(self, "signal_info", dict(self.signal_info))
@@ -109,9 +111,10 @@ class Recording:
     def signal(self, name: str) -> np.ndarray:
         """The samples of signal `name`; a missing one is an error naming file and column."""
         if name not in self.signals:
-            hint = "" if name in SIGNAL_NAMES else (
-                f"; {name!r} is not a signal name either{_suggest(name, SIGNAL_NAMES)} "
-                f"(valid: {', '.join(SIGNAL_NAMES)})")
+            known = self.vocabulary.signals
+            hint = "" if name in known else (
+                f"; {name!r} is not a signal name either{_suggest(name, known)} "
+                f"(valid: {', '.join(known)})")
             raise RecordingError(f"{self.source}: no column {name!r} (columns: time, {', '.join(self.signals)}){hint}")
         return self.signals[name]
 

@@ -6,7 +6,8 @@ from __future__ import annotations
 import difflib
 import math
 import numbers
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 
 from pendfmu.components import COMPONENTS
 from pendfmu.errors import BadInput
@@ -53,6 +54,17 @@ PARAMETER_NAMES: tuple[str, ...] = _parameter_names()
 
 INITIAL_NAMES: tuple[str, ...] = _initial_names()
 """Valid keys of the sidecar's ``initial``: signals that are (or follow one) state."""
+
+
+@dataclass(frozen=True)
+class Vocabulary:
+    """The names a recording may use: its columns, the sidecar's parameters (with a check
+    of each value) and its known initial states. MODEL.md's rig by default (RIG); a fit of
+    a user's model reads recordings with the model's names (Model.vocabulary)."""
+
+    signals: tuple[str, ...]
+    parameter_problem: Callable[[str, float], str | None]
+    initial_problem: Callable[[str, float], str | None]
 
 
 QUANTIZERS: tuple[str, ...] = ("round", "floor")
@@ -159,3 +171,7 @@ def _bytes(size: int) -> str:
     if size < 1024**3:
         return f"{size / 1024**2:.1f} MB"
     return f"{size / 1024**3:.2f} GB"
+
+
+RIG = Vocabulary(SIGNAL_NAMES, _parameter_problem, _initial_problem)
+"""MODEL.md's names: the rig's signals, parameters and states."""

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.recording.schema import RecordingError, SIDECAR_KEYS, SIGNAL_INFO_KEYS, SIGNAL_NAMES, _initial_problem, _noise_problem, _parameter_problem, _quantizer_problem, _resolution_problem, _suggest
+from pendfmu.recording.schema import RIG, RecordingError, SIDECAR_KEYS, SIGNAL_INFO_KEYS, Vocabulary, _noise_problem, _quantizer_problem, _resolution_problem, _suggest
 from pendfmu.recording.model import Recording, SignalInfo
 
 
@@ -24,6 +24,7 @@ class _Sidecar:
     ignore: set[str] = field(default_factory=set)
     parameters: dict[str, float] = field(default_factory=dict)
     initial: dict[str, float] = field(default_factory=dict)
+    vocabulary: Vocabulary = RIG
 
     @property
     def described(self) -> list[str]:
@@ -31,10 +32,10 @@ class _Sidecar:
         return [*self.signal_info, *self.ignore]
 
 
-def _read_sidecar(path: Path) -> _Sidecar:
+def _read_sidecar(path: Path, vocabulary: Vocabulary = RIG) -> _Sidecar:
     """Parse and check the sidecar; every problem names the JSON key it is under."""
     if not path.is_file():
-        return _Sidecar()
+        return _Sidecar(vocabulary=vocabulary)
     src = str(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
@@ -52,15 +53,15 @@ def _read_sidecar(path: Path) -> _Sidecar:
     if not isinstance(doc, dict):
         raise RecordingError(f"{src}: the top level must be a JSON object, got {_json_type(doc)}")
     _check_keys(doc, SIDECAR_KEYS, src)
-    sidecar = _Sidecar(path=path)
+    sidecar = _Sidecar(path=path, vocabulary=vocabulary)
     experiment = doc.get("experiment", "")
     if not isinstance(experiment, str):
         raise RecordingError(f"{src}: experiment: must be a string, got {_json_type(experiment)}")
     sidecar.experiment = experiment
     for name, entry in _json_object(doc, "signals", src).items():
         _read_signal_entry(sidecar, name, entry, src)
-    sidecar.parameters = _json_numbers(doc, "parameters", _parameter_problem, src)
-    sidecar.initial = _json_numbers(doc, "initial", _initial_problem, src)
+    sidecar.parameters = _json_numbers(doc, "parameters", vocabulary.parameter_problem, src)
+    sidecar.initial = _json_numbers(doc, "initial", vocabulary.initial_problem, src)
     return sidecar
 
 
@@ -86,9 +87,10 @@ def _read_signal_entry(sidecar: _Sidecar, name: str, entry, src: str) -> None:
             raise RecordingError(f"{src}: {key}: an ignored column takes no resolution or quantizer")
         sidecar.ignore.add(name)
         return
-    if name not in SIGNAL_NAMES:
-        raise RecordingError(f"{src}: {key}: unknown signal {name!r}{_suggest(name, SIGNAL_NAMES)}; valid: "
-                             f"{', '.join(SIGNAL_NAMES)} (or mark an extra column with \"ignore\": true)")
+    known = sidecar.vocabulary.signals
+    if name not in known:
+        raise RecordingError(f"{src}: {key}: unknown signal {name!r}{_suggest(name, known)}; valid: "
+                             f"{', '.join(known)} (or mark an extra column with \"ignore\": true)")
     resolution = _optional_number(entry, "resolution", _resolution_problem, f"{src}: {key}")
     quantizer = entry.get("quantizer", "round")
     problem = _quantizer_problem(quantizer)
@@ -167,12 +169,13 @@ def _select_columns(names: list[str], sidecar: _Sidecar, src: str, noun: str) ->
         seen.add(name)
         if name in sidecar.ignore:
             ignored.append(name)
-        elif name in SIGNAL_NAMES:
+        elif name in sidecar.vocabulary.signals:
             keep.append(name)
         else:
+            known = sidecar.vocabulary.signals
             sidecar_name = sidecar.path or Path(src).with_suffix(".json")
-            raise RecordingError(f"{src}: {noun} {name!r} is not a signal name{_suggest(name, SIGNAL_NAMES)}; "
-                                 f"valid: {', '.join(SIGNAL_NAMES)}; to keep it out, mark it in {sidecar_name}: "
+            raise RecordingError(f"{src}: {noun} {name!r} is not a signal name{_suggest(name, known)}; "
+                                 f"valid: {', '.join(known)}; to keep it out, mark it in {sidecar_name}: "
                                  f"\"signals\": {{\"{name}\": {{\"ignore\": true}}}}")
     if not keep:
         raise RecordingError(f"{src}: no signals left, all {noun}s are ignored ({', '.join(ignored)})")
@@ -184,4 +187,4 @@ def _build(path: Path, time: np.ndarray, signals: dict[str, np.ndarray], sidecar
     """The Recording of a checked file and its sidecar."""
     return Recording(path=path, time=time, signals=signals, experiment=sidecar.experiment,
                      signal_info=sidecar.signal_info, parameters=sidecar.parameters, initial=sidecar.initial,
-                     ignored=tuple(ignored), sidecar=sidecar.path)
+                     ignored=tuple(ignored), sidecar=sidecar.path, vocabulary=sidecar.vocabulary)

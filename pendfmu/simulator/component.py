@@ -80,10 +80,15 @@ class ComponentFMU:
         self.resets = True  # until fmi2Reset has failed once: then it is re-instantiated per run
         self._log_events = log_events
         self._callbacks = self._make_callbacks()
-        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=str(directory), modelIdentifier=kind,
-                               instanceName=self.name)
-        self._call(self.slave.instantiate, callbacks=self._callbacks, loggingOn=log_events)
+        self._load = dict(guid=md.guid, unzipDirectory=str(directory), modelIdentifier=kind, instanceName=self.name)
+        self.slave = None
+        self._instantiate()
         self._initialize(parameters, start_time)
+
+    def _instantiate(self) -> None:
+        """A new instance (fmpy's freeInstance also unloads the library: load it anew)."""
+        self.slave = FMU2Slave(**self._load)
+        self._call(self.slave.instantiate, callbacks=self._callbacks, loggingOn=self._log_events)
 
     # -- plumbing
 
@@ -135,7 +140,7 @@ class ComponentFMU:
                 self.resets = False
         if not self.resets:
             self.slave.freeInstance()
-            self._call(self.slave.instantiate, callbacks=self._callbacks, loggingOn=self._log_events)
+            self._instantiate()
         self._initialize(parameters, start_time)
 
     # -- values

@@ -15,11 +15,13 @@ components have is ambiguous, and using it is an error that lists the qualified 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from pendfmu.errors import BadInput
+from pendfmu.recording.schema import Vocabulary
 from pendfmu.simulator.component import unpacked_fmu
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
 
@@ -114,6 +116,30 @@ class Model:
         return cls(name or kind, {kind: Instance(kind, kind, path)})
 
     @classmethod
+    def from_ssp(cls, path: str | Path) -> Model:
+        """A model of an SSP system (an .ssp archive): its FMU components and connections.
+        Its parameter set's values become the parameters' start values (`defaults`)."""
+        from pendfmu.ssp import read_ssp
+
+        system = read_ssp(path)
+        instances = {}
+        for name, component in system.components.items():
+            md = unpacked_fmu(name, component.fmu)[1]
+            kind = (md.coSimulation or md.modelExchange).modelIdentifier
+            instances[name] = Instance(name, kind, component.fmu)
+        connections = [Connection(c.start_element, c.start_connector, c.end_element, c.end_connector)
+                       for c in system.connections]
+        model = cls(system.name or Path(path).stem, instances, connections)
+        for name, values in system.parameters.items():
+            for variable, given in values.items():
+                port = Port(name, variable)
+                if port in model.variables and isinstance(given.value, (int, float)):
+                    declared = model.variables[port]
+                    model.variables[port] = Variable(port, declared.causality, float(given.value), declared.low,
+                                                     declared.high, declared.unit)
+        return model
+
+    @classmethod
     def of_components(cls, name: str, kinds: Mapping[str, str], connections: Sequence[Connection] = ()) -> Model:
         """A model of pendfmu's own components (instance -> component type)."""
         return cls(name, {n: Instance(n, k) for n, k in kinds.items()}, list(connections), shared=True)
@@ -154,6 +180,42 @@ class Model:
         (found,) = self.resolve(name, causality)
         return found
 
+    def name_of(self, port: Port) -> str:
+        """The shortest name of a port: bare where that is unambiguous."""
+        bare = self._names[self.variables[port].causality].get(port.variable)
+        return port.variable if bare == [port] or (self.shared and bare and port in bare) else str(port)
+
+    def defaults(self) -> dict[str, float]:
+        """Every parameter's start value by its shortest name (a shared name once)."""
+        values: dict[str, float] = {}
+        for port, variable in self.variables.items():
+            if variable.causality == "parameter" and variable.start is not None:
+                values.setdefault(self.name_of(port), variable.start)
+        return values
+
+    def parameter_problem(self, name: str, value: float) -> str | None:
+        """Why `value` cannot be parameter `name` (unknown, ambiguous, not finite, outside
+        the range the model description declares), or None."""
+        try:
+            ports = self.resolve(name, "parameter")
+        except ModelError as error:
+            return str(error).split(": ", 1)[1]
+        if not math.isfinite(value):
+            return f"must be finite, got {value!r}"
+        for port in ports:
+            declared = self.variables[port]
+            if (declared.low is not None and value < declared.low) or (declared.high is not None and value > declared.high):
+                return (f"{value!r} is outside the range {port} declares "
+                        f"[{_bound(declared.low, '-inf')}, {_bound(declared.high, 'inf')}]")
+        return None
+
+    def vocabulary(self, columns: Iterable[str] = (), initial: Iterable[str] = ()) -> Vocabulary:
+        """The names a recording of this model may use: its inputs' and outputs' names,
+        the extra `columns` a fit maps them to, its parameters in the sidecar (checked
+        against the declared ranges) and the signals in `initial` (mapped to parameters)."""
+        signals = dict.fromkeys([*self.names("input"), *self.names("output"), *columns])
+        return Vocabulary(tuple(signals), self.parameter_problem, _KnownNames(tuple(initial)))
+
 
 _NOUN = {"parameter": "parameter", "input": "input", "output": "output"}
 
@@ -169,6 +231,23 @@ def _names(ports: Iterable[Port], shared: bool) -> dict[str, list[Port]]:
     for name, found in bare.items():
         names[name] = found if shared or len(found) == 1 else []
     return names
+
+
+@dataclass(frozen=True)
+class _KnownNames:
+    """The sidecar's `initial` check for a user's model: names it maps, finite values."""
+
+    names: tuple[str, ...]
+
+    def __call__(self, name: str, value: float) -> str | None:
+        if name not in self.names:
+            return (f"not a state this fit knows; valid: {', '.join(self.names) or 'none'} (map a signal to the "
+                    f"parameter of its initial value)")
+        return None if math.isfinite(value) else f"must be finite, got {value!r}"
+
+
+def _bound(value: float | None, missing: str) -> str:
+    return missing if value is None else f"{value:g}"
 
 
 def _suggestion(name: str, known: Iterable[str]) -> str:

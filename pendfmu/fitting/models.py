@@ -1,0 +1,187 @@
+"""A fit of a user's model: an FMU or an SSP system pendfmu did not make.
+
+The same experiments, residuals, optimizer and intervals as the paper's stages; what
+differs is where the names come from. A stage knows its drives, matches and free
+parameters (stages.py); a user's model gets them from the user, with defaults:
+
+- drives: every model input with a recorded column of the same name is driven by it
+  (held between samples unless the user asks for linear and the FMU can interpolate);
+- matches: every model output with a recorded column of the same name is compared;
+- free: none by default; the user names them (`free`);
+- the search box: `bounds`, else the range the model description declares, else a decade
+  either side of the start value (a lab engineer's prior is rarely off by more);
+- known values: the model description's start values, then `params`, then each
+  recording's sidecar ("parameters"; "initial" through `initial`, signal -> parameter,
+  by default an output `x` to a parameter `x0` where the model has one).
+
+Names are the model's (simulator/model.py): bare where unambiguous, `Component.name`
+always. An unknown name is an error that lists the valid ones.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from pendfmu.errors import BadInput
+from pendfmu.fitting.experiment import Experiment, Setup, prepare
+from pendfmu.fitting.residuals import FreeParameter
+from pendfmu.recording import Recording, read_recording
+from pendfmu.simulator.model import Model, ModelError
+
+SEARCH_DECADE = 10.0
+
+
+def load_model(model: str | Path | Model) -> Model:
+    """A Model from an FMU or SSP file (or the Model itself)."""
+    if isinstance(model, Model):
+        return model
+    path = Path(model)
+    if path.suffix.lower() == ".fmu":
+        return Model.from_fmu(path)
+    if path.suffix.lower() == ".ssp":
+        return Model.from_ssp(path)
+    raise ModelError(f"{model}: a model is an FMU (.fmu) or an SSP system (.ssp)")
+
+
+def mapping(items: Mapping[str, str] | Sequence[str] | None) -> dict[str, str] | None:
+    """{name: column} from a mapping or from 'NAME' / 'NAME=COLUMN' strings (the CLI's)."""
+    if items is None:
+        return None
+    if isinstance(items, Mapping):
+        return dict(items)
+    result = {}
+    for item in items:
+        name, _, column = item.partition("=")
+        result[name] = column or name
+    return result
+
+
+def checked_values(model: Model, values: Mapping[str, object], where: str = "") -> dict[str, float]:
+    """Parameter values for `model`, each checked (its name, a finite number, inside the
+    range the model description declares); a problem is an error naming `where`."""
+    prefix = f"{where}: " if where else ""
+    checked = {}
+    for name, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise BadInput(f"{prefix}parameter {name} = {value!r} is not a number")
+        problem = model.parameter_problem(name, float(value))
+        if problem:
+            raise BadInput(f"{prefix}parameter {name} = {value!r}: {problem}")
+        checked[name] = float(value)
+    return checked
+
+
+def initial_map(model: Model, given: Mapping[str, str] | None) -> dict[str, str]:
+    """Signal -> the parameter of its initial value: `given`, else by the convention of
+    MODEL.md and most exported models, an output `x` whose initial value is parameter `x0`."""
+    parameters = set(model.names("parameter"))
+    found = {name: f"{name}0" for name in model.names("output") if f"{name}0" in parameters}
+    for signal, parameter in (given or {}).items():
+        model.resolve(parameter, "parameter")
+        found[signal] = parameter
+    return found
+
+
+def read_for(model: Model, recordings: Sequence[str | Path | Recording], drive: Mapping[str, str] | None,
+             match: Mapping[str, str] | None, initial: Mapping[str, str]) -> list[Recording]:
+    """The recordings, read with the model's names (and the columns the user maps)."""
+    columns = [*(drive or {}).values(), *(match or {}).values()]
+    vocabulary = model.vocabulary(columns, initial)
+    return [r if isinstance(r, Recording) else read_recording(r, vocabulary=vocabulary) for r in recordings]
+
+
+def model_setup(model: Model, recording: Recording, drive: Mapping[str, str] | None,
+                match: Mapping[str, str] | None, interpolation: str = "hold") -> Setup:
+    """The drives and matches of one recording (module docstring for the defaults)."""
+    columns = set(recording.signals)
+    if drive is None:
+        drive = {name: name for name in model.names("input") if "." not in name and name in columns}
+    if match is None:
+        match = {name: name for name in model.names("output") if "." not in name and name in columns}
+    for name in drive:
+        model.resolve(name, "input")
+    for name in match:
+        model.resolve(name, "output")
+    if not match:
+        raise BadInput(f"{recording.path}: no recorded column is an output of {model.name} (outputs: "
+                       f"{', '.join(model.names('output'))}); name them with match (--match OUTPUT=COLUMN)")
+    return Setup(model.name, model, {name: (column, interpolation) for name, column in drive.items()}, dict(match))
+
+
+def model_experiments(model: Model, recordings: Sequence[Recording], values: Mapping[str, float],
+                      drive: Mapping[str, str] | None, match: Mapping[str, str] | None,
+                      initial: Mapping[str, str], interpolation: str = "hold") -> list[Experiment]:
+    """One experiment per recording: its setup and its known values (sidecar included)."""
+    experiments = []
+    for recording in recordings:
+        fixed = {**values, **recording.parameters}
+        for signal, value in recording.initial.items():
+            fixed[initial[signal]] = value
+        experiments.append(prepare(recording, model_setup(model, recording, drive, match, interpolation), fixed))
+    return experiments
+
+
+def model_free_parameters(model: Model, free: Sequence[str], fix: Sequence[str],
+                          bounds: Mapping[str, tuple[float, float]], values: Mapping[str, float]
+                          ) -> list[FreeParameter]:
+    """The user's free parameters with their search boxes (module docstring)."""
+    if not free:
+        raise BadInput(f"name the parameters of {model.name} to fit (free=... or --free NAME ...); its "
+                       f"parameters: {', '.join(n for n in model.names('parameter') if '.' not in n)}")
+    for name in [*free, *fix, *bounds]:
+        model.resolve(name, "parameter")
+    unknown = [name for name in bounds if name not in free or name in fix]
+    if unknown:
+        raise BadInput(f"bounds for {unknown[0]!r}, which this fit does not estimate; its free parameters: "
+                       f"{', '.join(n for n in free if n not in fix)}")
+    result = []
+    for name in free:
+        if name in fix:
+            continue
+        low, high = bounds.get(name) or _box(model, name, values.get(name))
+        log = low > 0 and high / low >= SEARCH_DECADE  # decades apart: searched on the log scale
+        result.append(FreeParameter(name, float(low), float(high), log))
+    return result
+
+
+def _box(model: Model, name: str, start: float | None) -> tuple[float, float]:
+    """The declared range where it is finite, else a decade either side of the start."""
+    declared = [model.variables[port] for port in model.resolve(name, "parameter")]
+    low = max((d.low for d in declared if d.low is not None), default=-math.inf)
+    high = min((d.high for d in declared if d.high is not None), default=math.inf)
+    if math.isfinite(low) and math.isfinite(high) and high > low:
+        return low, high
+    if start is None or start == 0 or not math.isfinite(start):
+        raise BadInput(f"parameter {name}: no search box: its start value is {start} and the FMU declares no finite "
+                       f"range; give one with bounds (--bounds {name}=LOW:HIGH)")
+    around = sorted((start / SEARCH_DECADE, start * SEARCH_DECADE))
+    return max(low, around[0]), min(high, around[1])
+
+
+def simulate_model(model: Model, recording: Recording, values: Mapping[str, float],
+                   drive: Mapping[str, str] | None = None, interpolation: str = "hold",
+                   initial: Mapping[str, str] | None = None):
+    """The model driven by a recording (inputs by name unless `drive` maps them), every
+    output at the recording's time stamps: a DataFrame with `time` first. Known values:
+    the model's defaults, `values`, then the recording's sidecar (its "initial" through
+    `initial`, signal -> parameter, by default as `initial_map`)."""
+    import pandas as pd
+
+    from pendfmu.simulator.replay import Drive, Replay
+
+    columns = set(recording.signals)
+    if drive is None:
+        drive = {name: name for name in model.names("input") if "." not in name and name in columns}
+    drives = {name: Drive(recording.signal(column), interpolation) for name, column in drive.items()}
+    outputs = [model.name_of(port) for port, v in model.variables.items() if v.causality == "output"]
+    fixed = {**model.defaults(), **values, **recording.parameters}
+    initial = initial_map(model, initial)
+    fixed.update({initial[signal]: value for signal, value in recording.initial.items()})
+    replay = Replay(model, recording.time, drives)
+    try:
+        simulated = replay.simulate(fixed, outputs)
+    finally:
+        replay.close()
+    return pd.DataFrame({"time": recording.time, **simulated})
