@@ -133,9 +133,11 @@ def test_unknown_suffixes_are_refused_naming_the_allowed_ones(tmp_path, name):
         check_output_path(name)
 
 
-def test_columns_of_another_length_are_refused(tmp_path):
+def test_columns_of_another_length_or_named_time_are_refused(tmp_path):
     with pytest.raises(ValueError, match="column 'x' has 1 values, time has 2"):
         write_signals(tmp_path / "out.csv", [0.0, 1.0], {"x": [1.0]})
+    with pytest.raises(ValueError, match="named 'time'"):
+        write_signals(tmp_path / "out.csv", [0.0, 1.0], {"time": [0.0, 1.0]})
     assert not list(tmp_path.iterdir())
 
 

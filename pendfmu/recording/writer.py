@@ -62,6 +62,8 @@ def write_signals(path: str | os.PathLike, time, columns: Mapping[str, object]) 
     path = Path(path)
     suffix = check_output_path(path)
     time = _vector(time, "time")
+    if "time" in columns:
+        raise ValueError("a column named 'time' would repeat the time vector; give the columns other names")
     table = np.empty((len(time), 1 + len(columns)))
     table[:, 0] = time
     for j, (name, values) in enumerate(columns.items(), start=1):
