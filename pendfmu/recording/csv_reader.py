@@ -3,7 +3,7 @@ problem names the file, the column and the line.
 
 Two ways in, one result. A plain file (UTF-8, a header without quotes, then rows of
 numbers, the same count in every row, no blank line before the end) is parsed by numpy's
-loadtxt in C: 6x faster than cell by cell, and its numbers are Python's own (loadtxt
+loadtxt in C: 5x faster than cell by cell, and its numbers are Python's own (loadtxt
 strips the same whitespace and calls PyOS_string_to_double, the function behind
 float()), so the arrays are bit-identical. Anything else, and every file with a
 problem, is read cell by cell with the csv module and float(), which says which line
