@@ -5,18 +5,22 @@ screw) at 0.2 ms communication steps, stepped by
   (a) a plain fmpy FMU2Slave loop in Python (the usual way to drive FMUs),
   (b) pendfmu's master, native and Python engines,
   (c) the plainest C loop over the same binaries (scripts/bench_limit.c): the limit.
+End to end (issue 13): `pendfmu simulate` (read the recording, simulate, write the result)
+against what a plain fmpy user writes for the same job, on a 20 s recording at 0.2 ms.
 Fitting: `fit all` on the standard virtual-rig set, and the current stage against a naive
 fit that calls fmpy.simulate_fmu inside scipy's least_squares.
 Also the cost's growth with recording length (1x, 2x, 4x).
 
-    python scripts/bench.py [--quick]
+    python scripts/bench.py [--quick] [--end-to-end-only]
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import ctypes
 import importlib
+import io
 import subprocess
 import sys
 import tempfile
@@ -142,6 +146,131 @@ def cosimulation(seconds: float) -> None:
     print(f"  (same result: phi {phi_a:.6f} / {phi_b:.6f} / {phi_c:.6f}; (b) interpolates inputs, (a) and (c) hold)")
 
 
+END_TO_END_OUTPUTS = {"I": ("CurrentLoop", "I"), "x": ("Cart", "x"), "v": ("Cart", "v"), "a": ("Cart", "a"),
+                      "phi": ("Pendulum", "phi"), "w": ("Pendulum", "w")}
+
+
+def step_recording(path: Path, seconds: float) -> Path:
+    """A recording of a command current alone: +-1.5 A steps every second, sampled at STEP."""
+    from pendfmu.recording import Recording, write_recording
+
+    time = np.arange(int(round(seconds / STEP)) + 1) * STEP
+    command = np.where(np.floor(time) % 2 == 0, 1.5, -1.5)
+    command[time < 0.02] = 0.0
+    return write_recording(Recording(None, time, {"I_c": command}), path)
+
+
+def plain_end_to_end(recording: Path, out: Path, outputs: tuple[str, ...] = ("phi",)) -> tuple[float, float]:
+    """What a plain fmpy user writes for `pendfmu simulate`: pandas.read_csv, the plain loop of
+    plain_fmpy_loop driven by the recording's I_c (held over each step, as simulate does by
+    default), and pandas' to_csv (exact by default). Timed from read_csv to the end of to_csv;
+    instantiating the three FMU2Slave objects is not timed, as in plain_fmpy_loop. `outputs`:
+    what it records at every step and writes (phi alone, as plain_fmpy_loop, or all six
+    columns of simulate's output, read with one getReal per FMU)."""
+    import pandas as pd
+
+    fmus = {name: ComponentFMU(name) for name in ("CurrentLoop", "Cart", "Pendulum")}
+    loop, cart, pendulum = (fmus[n].slave for n in ("CurrentLoop", "Cart", "Pendulum"))
+    vr = {n: fmus[n].vr for n in fmus}
+    reads = [(fmus[c].slave, [vr[c][v] for o, (cc, v) in END_TO_END_OUTPUTS.items() if cc == c and o in outputs])
+             for c in ("CurrentLoop", "Cart", "Pendulum")]
+    reads = [(slave, refs) for slave, refs in reads if refs]
+
+    def sample() -> list[float]:
+        return [value for slave, refs in reads for value in slave.getReal(refs)]
+
+    start = time.perf_counter()
+    frame = pd.read_csv(recording)
+    times, command = frame["time"].to_numpy(), frame["I_c"].to_numpy()
+    rows = [sample()]
+    for k in range(len(times) - 1):
+        t, h = times[k], times[k + 1] - times[k]
+        loop.setReal([vr["CurrentLoop"]["I_c"]], [command[k]])
+        loop.doStep(t, h)
+        current = loop.getReal([vr["CurrentLoop"]["I_mean"]])[0]
+        cart.setReal([vr["Cart"]["I"]], [current])
+        cart.doStep(t, h)
+        acceleration = cart.getReal([vr["Cart"]["a"]])[0]
+        pendulum.setReal([vr["Pendulum"]["a"]], [acceleration])
+        pendulum.doStep(t, h)
+        rows.append(sample())
+    result = pd.DataFrame(rows, columns=[o for o in END_TO_END_OUTPUTS if o in outputs])
+    result.insert(0, "time", times)
+    result.to_csv(out, index=False)
+    elapsed = time.perf_counter() - start
+    for fmu in fmus.values():
+        fmu.free()
+    return elapsed, float(result["phi"].iloc[-1])
+
+
+def pendfmu_simulate(recording: Path, out: Path) -> tuple[float, float]:
+    """`pendfmu simulate --input REC --out OUT` in-process (pendfmu.cli.main), all of it:
+    arguments, reading REC and its sidecar, checking and building the FMUs if stale,
+    loading and instantiating them, the SSP system and master, the run, writing OUT."""
+    from pendfmu.cli import main as cli
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        elapsed, code = timed(cli, ["simulate", "--input", str(recording), "--out", str(out)])
+    if code != 0:
+        raise RuntimeError(f"pendfmu simulate failed with exit code {code}")
+    return elapsed, float("nan")
+
+
+def simulate_stages(recording: Path, out: Path) -> dict[str, float]:
+    """The three parts of `pendfmu simulate`, each timed alone (best of REPEATS)."""
+    from pendfmu.recording import read_recording
+    from pendfmu.recording.writer import write_signals
+    from pendfmu.simulator.rig import simulate_recording
+
+    read, rec = best_of(timed, read_recording, recording)
+    simulate, result = best_of(timed, simulate_recording, {}, rec)
+    columns = {name: result[name].to_numpy() for name in result.columns[1:]}
+    write, _ = best_of(timed, write_signals, out, result["time"].to_numpy(), columns)
+    write_mat, _ = best_of(timed, write_signals, out.with_suffix(".mat"), result["time"].to_numpy(), columns)
+    return {"read": read, "simulate": simulate, "write": write, "write .mat": write_mat}
+
+
+def command_line(recording: Path, out: Path) -> tuple[float, float]:
+    """The command as a user runs it (a new Python process: start-up and imports included),
+    and the cost of Python's start-up and pendfmu's imports alone; best of REPEATS each."""
+    command = [sys.executable, "-m", "pendfmu", "simulate", "--input", str(recording), "--out", str(out)]
+    imports = [sys.executable, "-c", "import pendfmu.cli, pendfmu.simulator.rig"]
+    whole = min(timed(subprocess.run, command, check=True, capture_output=True)[0] for _ in range(REPEATS))
+    start = min(timed(subprocess.run, imports, check=True)[0] for _ in range(REPEATS))
+    return whole, start
+
+
+def end_to_end(seconds: float = 20.0) -> float:
+    """pendfmu simulate against a plain fmpy user's script on the same recording; the ratio."""
+    print(f"end to end: a {seconds:g} s recording of I_c at {STEP * 1e3:g} ms ({seconds / STEP + 1:.0f} samples), "
+          f"best of {REPEATS}:")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        recording = step_recording(folder / "rec.csv", seconds)
+        cold, _ = pendfmu_simulate(recording, folder / "ours.csv")  # first in this process: parses the FMUs' XML
+        ours, _ = best_of(pendfmu_simulate, recording, folder / "ours.csv")
+        ours_mat, _ = best_of(pendfmu_simulate, recording, folder / "ours.mat")
+        plain, phi_plain = best_of(plain_end_to_end, recording, folder / "plain.csv")
+        plain_all, _ = best_of(plain_end_to_end, recording, folder / "plain_all.csv", tuple(END_TO_END_OUTPUTS))
+        stages = simulate_stages(recording, folder / "stages.csv")
+        whole, start = command_line(recording, folder / "cli.csv")
+        import pandas as pd
+
+        phi_ours = float(pd.read_csv(folder / "ours.csv")["phi"].iloc[-1])
+    print(f"  pendfmu simulate, in-process main(), .csv  {ours:7.3f} s   (.mat {ours_mat:.3f} s; "
+          f"first run in the process {cold:.3f} s)")
+    print("    " + ", ".join(f"{name} {value * 1e3:.0f} ms" for name, value in stages.items())
+          + " (each alone; simulate includes loading the FMUs)")
+    print(f"  plain fmpy: read_csv + FMU2Slave loop + to_csv of time, phi   {plain:7.3f} s")
+    print(f"  plain fmpy, recording and writing simulate's six outputs     {plain_all:7.3f} s")
+    print(f"  pendfmu simulate vs plain fmpy: {plain / ours:5.1f}x faster "
+          f"({plain_all / ours:.1f}x against the same six outputs written)")
+    print(f"  command line (new process): {whole:.3f} s, of which Python start-up and imports {start:.3f} s")
+    print(f"  (same result: phi at the end {phi_plain:.6f} / {phi_ours:.6f}; the plain loop holds the coupled "
+          f"inputs, simulate interpolates them)")
+    return plain / ours
+
+
 def scaling() -> None:
     """Times for 1x, 2x, 4x the length, and the straight line through them: a fixed cost per
     run (resetting the FMUs, building the frame) plus a cost per simulated second."""
@@ -245,9 +374,14 @@ def dask_scaling(stage: str = "pendulum") -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="skip the full fit-all timing")
+    parser.add_argument("--end-to-end-only", action="store_true", help="only the pendfmu simulate comparison")
     args = parser.parse_args()
     print(f"python {sys.version.split()[0]}; one run, on this machine now")
+    if args.end_to_end_only:
+        end_to_end()
+        return
     cosimulation(10.0)
+    end_to_end()
     scaling()
     fitting(args.quick)
     dask_scaling()

@@ -38,7 +38,7 @@ def test_bad_recording_is_exit_2_with_one_line(tmp_path, capsys, case, command):
         path.write_text(csv)
     if sidecar is not None:
         path.with_suffix(".json").write_text(sidecar)
-    out = tmp_path / "out"
+    out = tmp_path / ("out.csv" if command == "simulate" else "out")  # simulate's suffix picks the format
     argv = (["simulate", "--input", str(path), "--out", str(out)] if command == "simulate"
             else ["fit", "current", str(path), "--out", str(out), "--no-global"])
     assert main(argv) == 2

@@ -98,3 +98,39 @@ def test_command_line_entry_point_runs(recording, tmp_path):
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert out.exists()
+
+
+def test_mat_output_holds_the_same_doubles_as_the_csv(recording, tmp_path, capsys):
+    """.mat (Simulink 'Structure with time') and .csv outputs read back through read_recording
+    with bit-identical arrays: the CSV text is exact."""
+    from pendfmu.recording import read_recording
+
+    params = write(tmp_path / "p.json", {"parameters": {"k_fwc": 25.0, "phi0": math.pi + 0.2}})
+    for name in ("out.csv", "out.mat"):
+        assert main(["simulate", "--params", str(params), "--input", str(recording), "--out", str(tmp_path / name)]) == 0
+    assert "out.mat" in capsys.readouterr().out
+    from_csv, from_mat = read_recording(tmp_path / "out.csv"), read_recording(tmp_path / "out.mat")
+    assert from_mat.names == from_csv.names == ("I", "x", "v", "a", "phi", "w")
+    assert from_mat.time.tobytes() == from_csv.time.tobytes()
+    for name in from_csv.names:
+        assert from_mat.signal(name).tobytes() == from_csv.signal(name).tobytes(), name
+    assert from_mat.signal("x")[-1] > 0.01
+
+
+@pytest.mark.parametrize("name", ["out.txt", "out.xlsx", "out"])
+def test_unknown_output_suffix_is_exit_2_before_any_simulation(recording, tmp_path, capsys, monkeypatch, name):
+    import pendfmu.simulator.rig
+
+    def no_simulation(*args, **kwargs):
+        raise AssertionError("simulated despite a bad --out")
+
+    monkeypatch.setattr(pendfmu.simulator.rig, "simulate_recording", no_simulation)
+    code = main(["simulate", "--input", str(recording), "--out", str(tmp_path / name)])
+    err = capsys.readouterr().err
+    assert code == 2 and ".csv or .mat" in err and name in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / name).exists()
+
+
+def test_output_into_a_missing_folder_is_exit_2_before_any_simulation(recording, tmp_path, capsys):
+    code = main(["simulate", "--input", str(recording), "--out", str(tmp_path / "nowhere" / "out.csv")])
+    assert code == 2 and "does not exist" in capsys.readouterr().err

@@ -34,3 +34,10 @@ def test_the_api_is_at_the_package_top_level():
     from pendfmu.fitting import identification
 
     assert pendfmu.fit is identification.fit and pendfmu.fit_all is identification.fit_all
+
+
+def test_the_end_to_end_benchmark_runs_on_a_short_recording(capsys):
+    """scripts/bench.py's pendfmu simulate vs plain fmpy comparison (issue 13), on 0.2 s."""
+    ratio = load("bench").end_to_end(0.2)
+    out = capsys.readouterr().out
+    assert ratio > 0 and "pendfmu simulate vs plain fmpy" in out and "command line (new process)" in out

@@ -1,20 +1,24 @@
-"""Simulate the whole rig driven by a recording's command current I_c.
+"""Simulate the whole rig driven by a recording's command current I_c, or a user's FMU or
+SSP system driven by the recording's columns (--fmu, --system).
 
-Writes time, I, x, v, a, phi, w at the recording's time stamps. Initial states come from
-the parameters file (x0, v0, phi0, w0), overridden by the recording sidecar's "initial".
+Writes time and the outputs (the rig: I, x, v, a, phi, w; a model: every output) at the
+recording's time stamps, as CSV or as a MATLAB .mat file (Simulink "Structure with time",
+variable simout) by the suffix of --out. Initial states come from the parameters file
+(x0, v0, phi0, w0), overridden by the recording sidecar's "initial".
 """
 
 from __future__ import annotations
 
 import argparse
 
-HELP = "simulate the rig driven by a recording's I_c"
+HELP = "simulate the rig driven by a recording's I_c (or --fmu / --system driven by its columns)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--params", help='parameters file {"parameters": {...}} (absent names keep defaults)')
     parser.add_argument("--input", required=True, help="recording (CSV + sidecar, or .mat) with a column I_c")
-    parser.add_argument("--out", required=True, help="output CSV")
+    parser.add_argument("--out", required=True,
+                        help="output file: .csv, or .mat (Simulink 'Structure with time' named simout)")
     parser.add_argument("--step", type=float, default=2e-4, help="communication step [s] (default 0.2 ms)")
     parser.add_argument("--interpolation", choices=("hold", "linear"), default="hold",
                         help="drives between samples: held (zero-order hold, default) or linear")
@@ -26,13 +30,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pendfmu.cli.outputs import check_output_file
     from pendfmu.errors import UsageError
     from pendfmu.parameters import read_parameters
     from pendfmu.recording import read_recording
+    from pendfmu.recording.writer import check_output_path, write_signals
     from pendfmu.simulator.rig import simulate_recording
 
     if not args.step > 0:
         raise UsageError(f"--step {args.step}: the communication step must be positive")
+    check_output_path(args.out)
+    check_output_file(args.out, "--out")
     if args.fmu or args.system:
         result = _simulate_model(args)
     else:
@@ -41,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
         parameters = read_parameters(args.params) if args.params else {}
         recording = read_recording(args.input)
         result = simulate_recording(parameters, recording, step=args.step, interpolation=args.interpolation)
-    result.to_csv(args.out, index=False, float_format="%.17g")
+    write_signals(args.out, result["time"], {name: result[name] for name in result.columns[1:]})
     print(f"wrote {len(result)} samples of {', '.join(result.columns[1:])} to {args.out}")
     return 0
 

@@ -46,6 +46,13 @@ are not readable this way; the error lists every variable found with its MATLAB 
 and size. A file in any other layout is brought in by a small adapter that builds a
 ``Recording(...)`` from arrays: the constructor runs the same checks.
 
+Files written
+-------------
+:func:`write_recording` writes a Recording as CSV + sidecar; :func:`write_signals` writes
+any time vector with named columns as CSV or as MATLAB v5 in Simulink's "Structure with
+time", chosen by the suffix (:func:`check_output_path` checks it before any work). Both
+are exact: read back, they give bit-identical arrays (pendfmu/recording/writer.py).
+
 Columns that are not signals
 ----------------------------
 Loggers write more than the fit needs (raw counts, PWM duty, latency). An unknown
@@ -79,10 +86,11 @@ from pendfmu.recording.model import Recording, SignalInfo, quantize
 from pendfmu.recording.schema import (INITIAL_NAMES, MAT_TIME_NAMES, PARAMETER_NAMES, QUANTIZERS, RIG, SIGNAL_NAMES,
                                       RecordingError, Vocabulary, _bytes)
 from pendfmu.recording.sidecar import _read_sidecar
-from pendfmu.recording.writer import write_recording
+from pendfmu.recording.writer import check_output_path, write_recording, write_signals
 
 __all__ = ["INITIAL_NAMES", "MAT_TIME_NAMES", "MAX_BYTES", "PARAMETER_NAMES", "QUANTIZERS", "RIG", "SIGNAL_NAMES",
-           "Recording", "RecordingError", "SignalInfo", "Vocabulary", "quantize", "read_recording", "write_recording"]
+           "Recording", "RecordingError", "SignalInfo", "Vocabulary", "check_output_path", "quantize", "read_recording",
+           "write_recording", "write_signals"]
 
 
 MAX_BYTES: int = 2 * 1024**3

@@ -1,35 +1,100 @@
-"""Writing recordings: CSV with repr-exact numbers and the sidecar, atomically."""
+"""Writing recordings and simulation results, exactly and atomically.
+
+:func:`write_recording` writes a Recording (CSV + sidecar); :func:`write_signals` writes
+any time vector with named columns, CSV or MATLAB by the file's suffix, for every command
+that writes a model's output (``pendfmu simulate``). Both write exact numbers: a CSV holds
+the shortest text that reads back to the same float64 (csv_text.py), a .mat file the
+doubles themselves; reading either with :func:`pendfmu.recording.read_recording` gives
+bit-identical arrays. Files are written under a temporary name and renamed, so a reader
+never sees half a file.
+"""
 
 from __future__ import annotations
 
 import json
 import os
-import tempfile
+import secrets
+from collections.abc import Mapping
 from pathlib import Path
 
-from pendfmu.recording.schema import RecordingError
+import numpy as np
+
+from pendfmu.recording.csv_text import format_rows, header_line
 from pendfmu.recording.model import Recording
+from pendfmu.recording.schema import RecordingError
+
+OUTPUT_SUFFIXES: tuple[str, ...] = (".csv", ".mat")
+"""What :func:`write_signals` writes, chosen by the path's suffix (any case)."""
+
+MAT_VARIABLE = "simout"
+"""The one variable of a written .mat file: a Simulink "Structure with time" (see
+:func:`write_signals`), named like the To Workspace block's default variable."""
+
+
+def check_output_path(path: str | os.PathLike) -> str:
+    """The format ('.csv' or '.mat') :func:`write_signals` will write to `path`; any
+    other suffix is refused, naming the allowed ones. Commands call this before they
+    simulate, so a typo in the name costs no run."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in OUTPUT_SUFFIXES:
+        found = f"suffix {Path(path).suffix!r}" if suffix else "no suffix"
+        raise RecordingError(f"{path}: cannot write a file with {found}; the output must end in "
+                             f"{' or '.join(OUTPUT_SUFFIXES)}")
+    return suffix
+
+
+def write_signals(path: str | os.PathLike, time, columns: Mapping[str, object]) -> Path:
+    """Write `time` and the named `columns` (1-D, as long as time) to `path`.
+
+    ``.csv``: a header ``time,<names>`` and one row per sample (the text of each number
+    is the shortest that reads back to the same double, as ``repr``).
+
+    ``.mat`` (MATLAB v5, scipy.io.savemat): one variable ``simout`` in Simulink's
+    "Structure with time" layout: ``simout.time`` (N x 1) and the struct array
+    ``simout.signals(k)`` with ``values`` (N x 1), ``dimensions`` (1) and ``label`` (the
+    column's name). Chosen over plain variables because it is what Simulink loads as
+    is, as the input of a model's root Inports (Data Import/Export > Input: ``simout``),
+    and what Simulink logs its outputs as, so a comparison uses the same indexing on both
+    sides; and because labels are strings, any model's output names fit (``Cart.x`` is
+    not a MATLAB variable name). In MATLAB: ``load out.mat; plot(simout.time,
+    simout.signals(2).values)``.
+    """
+    path = Path(path)
+    suffix = check_output_path(path)
+    time = _vector(time, "time")
+    if "time" in columns:
+        raise ValueError("a column named 'time' would repeat the time vector; give the columns other names")
+    table = np.empty((len(time), 1 + len(columns)))
+    table[:, 0] = time
+    for j, (name, values) in enumerate(columns.items(), start=1):
+        values = _vector(values, repr(name))
+        if len(values) != len(time):
+            raise ValueError(f"column {name!r} has {len(values)} values, time has {len(time)}")
+        table[:, j] = values
+    names = ["time", *columns]
+    if suffix == ".csv":
+        _write_atomic(path, [header_line(names), format_rows(table)])
+    else:
+        _write_mat(path, names, table)
+    return path
 
 
 def write_recording(recording: Recording, path: str | os.PathLike) -> Path:
     """Write `recording` as ``path`` (CSV) and its sidecar ``path`` with ``.json``.
 
-    Numbers are written with ``repr`` (the shortest text that reads back to the same
-    float64), so reading the files gives bit-identical arrays. The sidecar is always
-    written, even when empty, so a stale one from an earlier run cannot attach its
-    metadata to the new data. Both files are written to temporary names and renamed,
-    so a reader never sees half a file. Ignored columns of the source are not written.
-    Returns the CSV path.
+    Numbers are written as the shortest text that reads back to the same float64, so
+    reading the files gives bit-identical arrays. The sidecar is always written, even
+    when empty, so a stale one from an earlier run cannot attach its metadata to the new
+    data. Ignored columns of the source are not written. Returns the CSV path.
     """
     path = Path(path)
     if path.suffix.lower() != ".csv":
         raise RecordingError(f"{path}: write_recording writes CSV; the name must end in .csv")
     names = list(recording.signals)
-    columns = [recording.time.tolist()] + [recording.signals[n].tolist() for n in names]
-    lines = [",".join(["time", *names])]
-    lines.extend(",".join(map(repr, row)) for row in zip(*columns))
-    _write_atomic(path, "\n".join(lines) + "\n")
-    _write_atomic(path.with_suffix(".json"), json.dumps(_sidecar_document(recording), indent=2) + "\n")
+    table = np.column_stack([recording.time, *(recording.signals[n] for n in names)])
+    _write_atomic(path, [header_line(["time", *names]), format_rows(table)])
+    sidecar = json.dumps(_sidecar_document(recording), indent=2) + "\n"
+    _write_atomic(path.with_suffix(".json"), [sidecar.encode("utf-8")])
     return path
 
 
@@ -46,13 +111,43 @@ def _sidecar_document(recording: Recording) -> dict:
             "parameters": dict(recording.parameters), "initial": dict(recording.initial)}
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    """Write via a temporary file in the same directory and rename over `path`."""
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+def _write_mat(path: Path, names: list[str], table: np.ndarray) -> None:
+    """The table as a Simulink "Structure with time" (see write_signals)."""
+    import scipy.io
+
+    signals = np.zeros((1, len(names) - 1), dtype=[("values", object), ("dimensions", object), ("label", object)])
+    for k, name in enumerate(names[1:]):
+        signals[0, k] = (table[:, k + 1:k + 2].copy(), 1.0, name)
+    structure = {"time": table[:, :1].copy(), "signals": signals}
+    _write_atomic(path, None, lambda out: scipy.io.savemat(out, {MAT_VARIABLE: structure}, format="5"))
+
+
+def _write_atomic(path: Path, chunks, writer=None) -> None:
+    """Write the byte chunks (or call `writer` with the open binary file) to a new file
+    in the same folder, then rename it over `path`. The file is made with mode 0666 less
+    the umask, as any new file (mkstemp's 0600 would hide a result from the group)."""
+    while True:
+        temporary = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.part")
+        try:
+            handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+            break
+        except FileExistsError:  # pragma: no cover - a 32-bit random name taken
+            continue
     try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="") as out:
-            out.write(text)
+        with os.fdopen(handle, "wb") as out:
+            if writer is not None:
+                writer(out)
+            else:
+                for chunk in chunks:
+                    out.write(chunk)
         os.replace(temporary, path)
     except BaseException:
-        Path(temporary).unlink(missing_ok=True)
+        temporary.unlink(missing_ok=True)
         raise
+
+
+def _vector(values, label: str) -> np.ndarray:
+    array = np.asarray(values, dtype=np.float64)
+    if array.ndim != 1:
+        raise ValueError(f"{label} must be a 1-D array, got shape {array.shape}")
+    return array
