@@ -322,15 +322,54 @@ def fitting(quick: bool) -> None:
         start = {"T_i": 0.6e-3, "dIdt_max": 1800.0}
         naive, calls, values = best_of(naive_current_fit, folder / "current-steps.csv", start)
         ours, result = best_of(timed, fit, "current", [folder / "current-steps.csv"], start,
-                               global_search=GlobalOptions(enabled=False), progress=False)
+                               global_search=GlobalOptions(enabled=False), progress=False, uncertainty="jacobian")
         print(f"current stage, local fit from the same start, best of {REPEATS}:")
         print(f"  naive (simulate_fmu in least_squares): {naive:6.3f} s, {calls} simulations")
         print(f"  pendfmu:                               {ours:6.3f} s, {result.nfev} simulations "
               f"-> {naive / ours:.1f}x faster ({naive / calls / (ours / result.nfev):.1f}x per simulation)")
         if not quick:
             wall, result = timed(fit_all, folder, seed=1, progress=False)
+            intervals = sum(u.get("seconds", 0.0) for u in result.uncertainty.values())
             print(f"fit all on the standard set: {wall:.1f} s wall, {result.nfev} simulations, "
-                  f"{result.failures} failed")
+                  f"{result.failures} failed; of it the bootstrap intervals {intervals:.1f} s")
+
+
+def foreign_fit() -> None:
+    """Issue 13: a foreign cart FMU (tests/foreign, not made with pendfmu's framework)
+    fitted with 6 free parameters to three recordings, by pendfmu and by the hand-written
+    scipy least_squares over fmpy's FMU2Slave (scripts/foreign_baseline.py), from the same
+    start, both local fits without intervals. Neither side's time includes loading the
+    FMU (pendfmu's first fit, which unpacks it, is run once before timing)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    import foreign_baseline as baseline
+    from foreign.build import build
+    from foreign.recordings import FIT_NAMES, FITTED, TRUTH, write_recordings
+
+    from pendfmu.fitting.identification import fit
+    from pendfmu.fitting.optimizer import GlobalOptions
+
+    with tempfile.TemporaryDirectory() as tmp:
+        fmu = build("ForeignCart", tmp)
+        csvs = write_recordings(fmu, Path(tmp) / "recordings")
+        start = {p: TRUTH[p] * baseline.START_FACTORS[p] for p in FITTED}
+        known = {"m": TRUTH["m"]}
+        files = [csvs[name] for name in FIT_NAMES]
+
+        def ours():
+            return fit(fmu, files, {**known, **start}, free=list(FITTED), progress=False,
+                       global_search=GlobalOptions(enabled=False), uncertainty="jacobian")
+
+        ours()
+        mine, result = best_of(timed, ours)
+        theirs = min((baseline.fit(fmu, files, start, known) for _ in range(REPEATS)), key=lambda r: r["seconds"])
+    worst = max(abs(result.parameters[p] / TRUTH[p] - 1) for p in FITTED)
+    worst_theirs = max(abs(theirs["estimate"][p] / TRUTH[p] - 1) for p in FITTED)
+    print(f"foreign cart fit (6 parameters, 3 recordings of 8 s at 1 ms), local fits from the same start, "
+          f"best of {REPEATS}:")
+    print(f"  scipy least_squares over FMU2Slave: {theirs['seconds']:6.3f} s, {theirs['simulations']} simulations, "
+          f"largest error {100 * worst_theirs:.4f} %")
+    print(f"  pendfmu:                            {mine:6.3f} s, {3 * result.nfev} simulations, "
+          f"largest error {100 * worst:.4f} % -> {theirs['seconds'] / mine:.1f}x faster")
 
 
 def dask_scaling(stage: str = "pendulum") -> None:
@@ -375,15 +414,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="skip the full fit-all timing")
     parser.add_argument("--end-to-end-only", action="store_true", help="only the pendfmu simulate comparison")
+    parser.add_argument("--foreign-only", action="store_true", help="only the foreign FMU fit against plain scipy")
     args = parser.parse_args()
     print(f"python {sys.version.split()[0]}; one run, on this machine now")
     if args.end_to_end_only:
         end_to_end()
         return
+    if args.foreign_only:
+        foreign_fit()
+        return
     cosimulation(10.0)
     end_to_end()
     scaling()
     fitting(args.quick)
+    foreign_fit()
     dask_scaling()
 
 

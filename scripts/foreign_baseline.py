@@ -7,7 +7,8 @@ the six parameters (k_u, c_v, F_c, F_s, v_s, F_0) set by value reference, the vo
 held per sample with FMU2Slave's high-level setReal/doStep/getReal, residuals = simulated
 x - recorded x at the samples of the three fit recordings, scipy's `least_squares` (trf,
 finite differences, bounds that keep the FMU's parameters physical). The FMU runs with its
-default internal step (h_max 0.1 ms); the recordings were made with 10 µs.
+default internal step, one RK4 step per 1 ms sample (h_max 1 ms, as a fixed-step export at
+its sample time); the recordings were made with 10 µs.
 
 It prints the wall time, the number of simulations, each parameter's relative error
 against the truth, and the prediction error on the fourth recording in encoder steps.

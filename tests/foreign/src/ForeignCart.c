@@ -36,7 +36,7 @@ static const RealVariable REALS[] = {
     {VR_F_0, "F_0", PARAMETER, 0.0, -INFINITY, INFINITY, 0, "the offset force"},
     {VR_X0, "x0", PARAMETER, 0.0, -INFINITY, INFINITY, 0, "the initial position"},
     {VR_V0, "v0", PARAMETER, 0.0, -INFINITY, INFINITY, 0, "the initial speed"},
-    {VR_H_MAX, "h_max", PARAMETER, 1e-4, 0.0, 1.0, 1, "the internal step"},
+    {VR_H_MAX, "h_max", PARAMETER, 1e-3, 0.0, 1.0, 1, "the internal step"},
 };
 
 static const IntegerVariable INTEGERS[] = {{VR_MODE, "mode", 0}};
