@@ -12,10 +12,11 @@ Files: `<name>.csv` with the columns ``time, u, x`` (u[k] is the voltage held ov
 [time[k], time[k+1])) and the sidecar `<name>.json` in pendfmu's recording format (the
 encoder resolution and quantizer, the known mass, the initial state).
 
-Reading them needs the engine's generic signal names (issue 13): pendfmu's recording
-reader accepts only its own components' names today (``I_c, I, x, v, a, F_A, phi, w,
-alpha, T_A``) and its own parameter names, so `pendfmu.recording.read_recording` refuses
-the column ``u`` and the parameter ``m``. Until then read them with `read` (pandas, json).
+pendfmu reads them with the model's names (``pendfmu fit --fmu ForeignCart.fmu ...``);
+`read_recording` without the model refuses the column ``u`` and the parameter ``m``, which
+are not MODEL.md's. `read` reads them without pendfmu (pandas, json).
+
+    python tests/foreign/recordings.py FMU OUT_DIR      (writes the four recordings)
 """
 
 from __future__ import annotations
@@ -141,3 +142,10 @@ def read(path: str | Path) -> tuple[pd.DataFrame, dict]:
     """A recording written by `write_recordings`: (the CSV as a DataFrame, the sidecar)."""
     path = Path(path)
     return pd.read_csv(path), json.loads(path.with_suffix(".json").read_text())
+
+
+if __name__ == "__main__":
+    import sys
+
+    for written in write_recordings(sys.argv[1], sys.argv[2]).values():
+        print(written)
