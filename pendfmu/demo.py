@@ -89,7 +89,7 @@ def identify(out: Path) -> Path:
     """The paper's method end to end: record the experiments on the virtual rig, fit the
     stages in order from the reference values, write the result, its report and the
     exported FMUs, and plot the unfitted coupled recordings against their prediction."""
-    from pendfmu.fitting.identification import fit_all
+    from pendfmu.fitting.sequence import fit_all
     from pendfmu.recording import read_recording
     from pendfmu.simulator.rig import simulate_recording
     from pendfmu.virtual_rig import write_experiments

@@ -312,7 +312,8 @@ def naive_current_fit(path: Path, start: dict[str, float]) -> tuple[float, int, 
 
 
 def fitting(quick: bool) -> None:
-    from pendfmu.fitting.identification import fit, fit_all
+    from pendfmu.fitting.identification import fit
+    from pendfmu.fitting.sequence import fit_all
     from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.virtual_rig import write_experiments
 
@@ -381,8 +382,7 @@ def dask_scaling(stage: str = "pendulum") -> None:
     except ImportError:
         print("dask: not installed (pip install 'pendfmu[distributed]')")
         return
-    from pendfmu.fitting.stages import STAGES, make_experiment
-    from pendfmu.fitting.identification import _free_parameters, rig_defaults
+    from pendfmu.fitting.stages import STAGES, make_experiment, rig_defaults, stage_free_parameters
     from pendfmu.fitting.optimizer import GlobalOptions, global_search
     from pendfmu.recording import read_recording
     from pendfmu.fitting.residuals import Residuals
@@ -393,7 +393,7 @@ def dask_scaling(stage: str = "pendulum") -> None:
         write_experiments(tmp, seed=2, experiments=chosen)
         values = rig_defaults()
         experiments = [make_experiment(read_recording(p), stage, values) for p in sorted(Path(tmp).glob("*.csv"))]
-        free = _free_parameters(stage, experiments, None, [], {}, values)
+        free = stage_free_parameters(stage, experiments, None, [], {}, values)
         spec = STAGES[stage]
         coarse = {**values, **({"solver_step": spec.coarse_solver_step} if spec.coarse_solver_step else {})}
         residuals = Residuals(experiments, free, coarse, decimate=spec.coarse_decimate)  # as fit() builds it

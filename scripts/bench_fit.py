@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from pendfmu.fitting.identification import fit_all
+from pendfmu.fitting.sequence import fit_all
 from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.virtual_rig import write_experiments
 

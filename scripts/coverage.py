@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.fitting.identification import fit_all
+from pendfmu.fitting.sequence import fit_all
 from pendfmu.virtual_rig import RIPPLE, reference_truth, write_experiments
 
 from coverage_tally import STAGE_PARAMETERS, covers, print_summary, read_results

@@ -20,10 +20,10 @@ import pytest
 from scipy.stats import t as student_t
 
 from pendfmu.fitting.bootstrap import Replicates, bootstrap_estimates, synthetic_experiment
-from pendfmu.fitting.stages import make_experiment
-from pendfmu.fitting.identification import fit, rig_defaults
+from pendfmu.fitting.identification import fit
+from pendfmu.fitting.stages import make_experiment, rig_defaults
 from pendfmu.fitting.optimizer import GlobalOptions
-from pendfmu.recording import Recording, read_recording
+from pendfmu.recording import read_recording
 from pendfmu.fitting.residuals import FreeParameter, unit_of
 from pendfmu.fitting.result import Estimate
 from pendfmu.fitting.uncertainty import undetermined

@@ -54,7 +54,7 @@ def test_fit_all_on_an_empty_folder_is_exit_2(tmp_path, capsys):
 def test_a_model_that_misses_part_of_the_recording_is_reported(tmp_path):
     """Fitting the current loop without its ripple harmonic to a recording that has one: the
     residuals stand far above the ADC noise, and the result says so."""
-    from pendfmu.fitting.identification import fit_current
+    from pendfmu.fitting.ripple import fit_current
     from pendfmu.virtual_rig import Experiment, steps, write_experiments
 
     experiment = Experiment("rippled", "current", 0.012, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))

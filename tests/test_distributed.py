@@ -24,14 +24,13 @@ def cluster():
 @pytest.fixture
 def cart_residuals(cart_recording):
     """The cart stage's residuals for the recording, as a fit builds them."""
-    from pendfmu.fitting.stages import make_experiment
-    from pendfmu.fitting.identification import _free_parameters, rig_defaults
+    from pendfmu.fitting.stages import make_experiment, rig_defaults, stage_free_parameters
     from pendfmu.recording import read_recording
     from pendfmu.fitting.residuals import Residuals
 
     values = rig_defaults()
     experiment = make_experiment(read_recording(cart_recording), "cart", values)
-    return Residuals([experiment], _free_parameters("cart", [experiment], None, [], {}, values), values)
+    return Residuals([experiment], stage_free_parameters("cart", [experiment], None, [], {}, values), values)
 
 
 def test_dask_cluster_gives_the_same_result_as_local_processes(cluster, cart_recording, tmp_path):

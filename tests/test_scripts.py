@@ -30,12 +30,6 @@ def test_fit_example_runs_and_writes_its_files(tmp_path, capsys):
     assert "95 % interval" in capsys.readouterr().out
 
 
-def test_the_api_is_at_the_package_top_level():
-    from pendfmu.fitting import identification
-
-    assert pendfmu.fit is identification.fit and pendfmu.fit_all is identification.fit_all
-
-
 def test_the_end_to_end_benchmark_runs_on_a_short_recording(capsys):
     """scripts/bench.py's pendfmu simulate vs plain fmpy comparison (issue 13), on 0.2 s."""
     ratio = load("bench").end_to_end(0.2)

@@ -92,7 +92,9 @@ def run(args: argparse.Namespace) -> int:
     from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, fingerprint
     from pendfmu.cli.outputs import check_output_file, check_output_folder
     from pendfmu.errors import EXIT_SUSPICIOUS, Suspicious, UsageError
-    from pendfmu.fitting.identification import fit, fit_all, fit_current
+    from pendfmu.fitting.identification import fit
+    from pendfmu.fitting.sequence import fit_all
+    from pendfmu.fitting.ripple import fit_current
     from pendfmu.fitting.models import checked_values
     from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.parameters import read_parameters, write_parameters

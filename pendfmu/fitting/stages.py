@@ -16,14 +16,17 @@ paper uses. Nothing in the simulator knows the stages' names.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from pendfmu.fitting.experiment import Experiment, Setup, prepare
-from pendfmu.parameters import INITIAL_STATE_PARAMETERS, check_parameters, with_initial_states
+from pendfmu.components import COMPONENTS
+from pendfmu.fitting.residuals import FreeParameter
+from pendfmu.parameters import INITIAL_STATE_PARAMETERS, ParameterFileError, check_parameters, with_initial_states
 from pendfmu.recording import Recording, RecordingError
 from pendfmu.simulator.graph import Connection
 from pendfmu.simulator.model import Model
@@ -146,3 +149,74 @@ def _choose_drive(recording: Recording, spec: Stage, drive: str | None) -> str:
             return candidate
     raise RecordingError(f"{recording.path}: stage {spec.name} needs a drive signal "
                          f"({' or '.join(spec.drives)}); columns: {', '.join(('time', *recording.signals))}")
+
+
+# name: (low, high, logarithmic). Physical ranges wide enough for any lab rig.
+DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
+    "T_i": (1e-5, 1e-1, True), "dIdt_max": (10.0, 1e6, True),
+    "a_h": (0.0, 1.0, False), "f_h": (1.0, 1e5, True), "phase_h": (-math.pi, math.pi, False),
+    "eta": (0.05, 1.0, False), "k_fwc": (1e-2, 1e3, True), "F_Kc": (1e-2, 1e3, True), "F_Sc": (1e-2, 1e3, True),
+    "k_fwp": (1e-7, 1e-1, True), "T_Kp": (1e-7, 1e-1, True), "T_Sp": (1e-7, 1e-1, True),
+    "m_c": (0.05, 100.0, True), "x0": (-1.0, 1.0, False), "v0": (-5.0, 5.0, False),
+    "J_p": (1e-6, 10.0, True), "w0": (-20.0, 20.0, False),
+}
+
+
+def rig_defaults() -> dict[str, float]:
+    """Every rig parameter at its FMU default (the reference rig of MODEL.md)."""
+    values: dict[str, float] = {}
+    for component in COMPONENTS.values():
+        for name, variable in component.parameters.items():
+            if name != "solver_step":
+                values.setdefault(name, float(variable.start))
+    return values
+
+
+SEARCH_DECADE = 10.0  # default search box: the given value divided and multiplied by this
+STICTION_OF = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> the Coulomb friction it is fitted relative to
+STICTION_RATIO = (1.0, 10.0)
+
+
+def stage_free_parameters(stage: str, experiments: list[Experiment], free: Sequence[str] | None,
+                     fix: Sequence[str], bounds: Mapping[str, tuple[float, float]],
+                     values: Mapping[str, float]) -> list[FreeParameter]:
+    spec = STAGES[stage]
+    component = COMPONENTS[spec.component]
+    names = list(spec.default_free) + [n for n in (free or []) if n not in spec.default_free]
+    for name in list(names) + list(fix):
+        if name not in component.parameters and name not in {"phi0"}:
+            raise ParameterFileError(f"stage {stage} fits parameters of {spec.component}; {name!r} is not one "
+                                     f"(valid: {', '.join(n for n in component.parameters if n != 'solver_step')})")
+    estimated = {name for experiment in experiments for name in experiment.estimated}
+    valid = [n for n in names if n not in fix] + sorted(estimated - set(fix))
+    for name in bounds:
+        if name not in valid:
+            raise ParameterFileError(f"bounds for {name!r}, which this fit does not estimate; its free "
+                                     f"parameters: {', '.join(valid) or 'none'}")
+    result = []
+    for name in names:
+        if name in fix:
+            continue
+        low, high, log = DEFAULT_BOUNDS.get(name, (None, None, False))
+        prior = values.get(name)
+        if log and prior and prior > 0 and name not in bounds:
+            # Search a decade either side of the given value: a lab engineer's prior is
+            # rarely off by more, and a box of five decades leaves the global search lost.
+            low, high = max(low, prior / SEARCH_DECADE), min(high, prior * SEARCH_DECADE)
+        relative_to = None
+        if name in bounds:
+            low, high = bounds[name]
+            log = log and low > 0
+        elif name in STICTION_OF and STICTION_OF[name] in names and STICTION_OF[name] not in fix:
+            relative_to, (low, high), log = STICTION_OF[name], STICTION_RATIO, True
+        elif name in STICTION_OF:
+            low = max(low, values.get(STICTION_OF[name], 0.0))  # below Coulomb friction it has no effect
+        if low is None or not high > low:
+            raise ParameterFileError(f"parameter {name}: give bounds as --bounds {name}=LOW:HIGH (LOW < HIGH)")
+        result.append(FreeParameter(name, float(low), float(high), log, relative_to=relative_to))
+    for experiment in experiments:
+        for name, (_guess, low, high) in experiment.estimated.items():
+            if name not in fix:  # an initial state's box: +-2 sensor steps, or what --bounds gives
+                low, high = bounds.get(name, (low, high))
+                result.append(FreeParameter(name, low, high, False, experiment.name))
+    return result

@@ -25,9 +25,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+
+from pendfmu.errors import FMUError
+from pendfmu.fitting.residuals import Residuals, unit_of
+from pendfmu.fitting.result import Estimate
 
 
 @dataclass(frozen=True)
@@ -89,3 +93,36 @@ def bounded_set(found: Evidence, replicates: Iterable[Evidence], coulomb: float)
     # force held may then exceed one reversed at by a sample's change. The threshold is
     # between them either way.
     return (low, high) if high >= low else (high, low)
+
+
+def bound_stiction(stage: str, residuals: Residuals, u: np.ndarray, estimates: dict[str, Estimate],
+                    fitted: dict[str, float], replicates: np.ndarray | None) -> list[str]:
+    """Stiction that the recordings only bound (stiction.py: no breakaway of a joint at
+    rest in any of them) is reported as that set, the same for every seed, with the least
+    stiction the recordings demand as its value."""
+    joint = JOINTS[stage]
+    if joint.stiction not in estimates:
+        return []
+    extra = (joint.force, joint.speed, joint.acceleration)
+    found = evidence(residuals.simulate(u, extra=extra), joint)
+    others = []
+    for row in replicates if replicates is not None else []:
+        if not np.isnan(row).any():
+            try:
+                others.append(evidence(residuals.simulate(unit_of(residuals.free, row), extra=extra), joint))
+            except FMUError:
+                continue
+    coulomb = fitted.get(joint.coulomb, residuals.shared.get(joint.coulomb, 0.0))
+    bounds = bounded_set(found, others, coulomb)
+    if bounds is None:
+        return []
+    low, high = bounds
+    fitted[joint.stiction] = low
+    estimates[joint.stiction] = replace(
+        estimates[joint.stiction], value=low, stderr=None, ci95=(low, high), method="bounded", flags=[
+            f"bounded only: every {joint.stiction} in [{low:.4g}, {high:.4g}] {joint.unit} gives the same recordings "
+            f"(no joint at rest broke away in them: they only show where it stuck or reversed); the value given is "
+            f"the least stiction the recordings demand"
+            + (". Record the 'pendulum-stiction' experiment (pendfmu rig) to pin it down" if stage == "pendulum"
+               else ". Record a slow ramp of the drive from rest to pin it down")])
+    return [f"{joint.stiction} is set-identified: [{low:.4g}, {high:.4g}] {joint.unit}"]
