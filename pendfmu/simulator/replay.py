@@ -11,8 +11,9 @@ whose predecessors' parameters, did not change since the last run is not run aga
 the cart stage the current loop runs once per current-loop parameter set).
 
 What an FMU declares is honoured: input derivatives only where canInterpolateInputs,
-an uneven time grid only where canHandleVariableCommunicationStepSize. Models with an
-algebraic loop are the co-simulation master's (master.py), not a Replay's.
+an uneven time grid only where canHandleVariableCommunicationStepSize. A model whose
+components feed each other (an algebraic loop, or a group coupled through states) is run
+by the co-simulation master instead (master.py), which iterates the group per step.
 """
 
 from __future__ import annotations
@@ -56,9 +57,10 @@ class Replay:
 
     def __init__(self, model: Model, time: np.ndarray, drives: Mapping[str, Drive], decimate: int = 1,
                  refine: Refinement | None = None):
-        if any(len(group) > 1 for group in model.order):
-            raise ModelError(f"{model.name}: its components feed each other ({'; '.join(map(str, model.loops))}); "
-                             f"a fit replays acyclic models only: simulate it with the co-simulation master")
+        self.coupled = any(len(group) > 1 for group in model.order)
+        if self.coupled and refine is not None:
+            raise ModelError(f"{model.name}: a refined grid is for models without coupled components")
+        self._master = None
         self.model = model
         self.index = np.arange(0, len(time), max(1, int(decimate)))
         self.times = np.asarray(time, dtype=float)[self.index]
@@ -89,6 +91,8 @@ class Replay:
     def simulate(self, values: Mapping[str, float], outputs: Sequence[str]) -> dict[str, np.ndarray]:
         """The named outputs at the recording's (decimated) time stamps for these values."""
         wanted = {name: self.model.port(name, "output") for name in outputs}
+        if self.coupled:
+            return self._coupled(values, wanted)
         points, samples = self._grid(values)
         per = self.model.split(values)
         signals: dict[Port, np.ndarray] = {}
@@ -150,17 +154,38 @@ class Replay:
                            messages=fmu.messages[-3:])
         return {port: result[:, j] for j, port in enumerate(outputs)}
 
+    def _coupled(self, values: Mapping[str, float], wanted: Mapping[str, Port]) -> dict[str, np.ndarray]:
+        """A model whose components feed each other runs in the co-simulation master
+        (master.py: Gauss-Seidel with slopes, algebraic loops torn and solved per step with
+        FMU-state rollback), one communication step per sample, native engine."""
+        from pendfmu.simulator.master import ExternalInput, Master
+
+        per = self.model.split(values)
+        if self._master is None:
+            step = float(np.max(np.diff(self.times))) if len(self.times) > 1 else 1.0
+            self._master = Master({n: i.kind for n, i in self.model.instances.items()}, self.model.connections, per,
+                                  step=step, fmus={n: i.fmu for n, i in self.model.instances.items() if i.fmu})
+        self._master.parameters = {name: dict(per[name]) for name in self.model.instances}
+        external = {str(port): ExternalInput(self.times, drive.values, drive.interpolation)
+                    for port, drive in self.drives.items()}
+        frame = self._master.run(self.times, [str(port) for port in wanted.values()], external)
+        return {name: frame[str(port)].to_numpy() for name, port in wanted.items()}
+
     def close(self) -> None:
         for fmu in self._fmus.values():
             fmu.free()
         self._fmus.clear()
         self._kept.clear()
+        if self._master is not None:
+            self._master.close()
+            self._master = None
 
     def __getstate__(self):
         """Sent to worker processes without its FMU instances; each worker makes its own."""
         state = dict(self.__dict__)
         state["_fmus"] = {}
         state["_kept"] = {}
+        state["_master"] = None
         return state
 
 
