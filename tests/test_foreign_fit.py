@@ -152,3 +152,35 @@ def test_an_ssp_system_with_an_algebraic_loop_runs_in_the_master(tmp_path):
     rig, ssp = pd.read_csv(tmp_path / "rig.csv"), pd.read_csv(tmp_path / "ssp.csv")
     for name in ("x", "phi"):
         assert np.max(np.abs(rig[name] - ssp[name])) < 1e-12, name
+
+
+def test_the_fit_exports_a_parameterized_copy_and_an_ssv(cart, fitted, tmp_path):
+    """`pendfmu export --fmu` writes the user's FMU with the fitted values as start values
+    (binaries byte for byte, GUID kept) and an SSV file; an importer that applies the model
+    description's start values (pendfmu does) then runs the fitted cart."""
+    import zipfile
+
+    import fmpy
+    from fmpy.validation import validate_fmu
+
+    folder, fmu, recordings = cart
+    parameters = tmp_path / "fitted.json"
+    parameters.write_text(json.dumps({"parameters": fitted["parameters"]}))
+    assert main(["export", "--fmu", str(fmu), "--params", str(parameters), "--out", str(tmp_path / "out")]) == 0
+    copy = tmp_path / "out" / "ForeignCart.fmu"
+    assert validate_fmu(str(copy)) == []
+    original, exported = fmpy.read_model_description(str(fmu)), fmpy.read_model_description(str(copy))
+    assert exported.guid == original.guid
+    start = {v.name: float(v.start) for v in exported.modelVariables if v.causality == "parameter"}
+    for name in FITTED:
+        assert start[name] == fitted["parameters"][name]
+    with zipfile.ZipFile(fmu) as a, zipfile.ZipFile(copy) as b:
+        for member in a.namelist():
+            if member.startswith("binaries/"):
+                assert a.read(member) == b.read(member)
+    assert "ForeignCart.k_u" in (tmp_path / "out" / "parameters.ssv").read_text()
+    out = tmp_path / "predicted.csv"  # the copy alone, no parameters file: its start values are the fit's
+    assert main(["simulate", "--fmu", str(copy), "--input", str(recordings[PREDICTION_NAME]), "--out", str(out)]) == 0
+    recorded = pd.read_csv(recordings[PREDICTION_NAME])
+    rms = float(np.sqrt(np.mean((pd.read_csv(out)["x"] - recorded["x"]) ** 2)))
+    assert rms / RESOLUTION < 2.0

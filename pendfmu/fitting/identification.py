@@ -199,7 +199,8 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
     warnings += [note for note in notes if note.startswith("the local refinement stopped")]
     return FitResult(stage, final, estimates, correlation, 0.5 * float(outcome.residual @ outcome.residual),
                      nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial_states, notes,
-                     warnings=warnings, uncertainty=assessed.summary, replicates=assessed.replicates)
+                     warnings=warnings, uncertainty=assessed.summary, replicates=assessed.replicates,
+                     model=None if preset or isinstance(model, Model) else str(model))
 
 
 def _experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]:

@@ -75,6 +75,7 @@ class FitResult:
     # --strict a non-zero exit code
     warnings: list[str] = field(default_factory=list)
     uncertainty: dict = field(default_factory=dict)  # how the intervals were made (method, replicates, time)
+    model: str | None = None  # a user's FMU or SSP file (None: pendfmu's own components)
     # per bootstrap replicate, the stage's fitted values (not written: later stages take them)
     replicates: list[dict[str, float]] = field(default_factory=list, repr=False)
 
@@ -101,7 +102,8 @@ class FitResult:
             "initial": self.initial,
             "fit": {"stage": self.stage, "cost": self.cost, "nrmse": self.nrmse, "nfev": self.nfev,
                     "failures": self.failures, "seconds": self.seconds, "notes": self.notes,
-                    "warnings": self.warnings, "uncertainty": self.uncertainty, "validation": self.validation},
+                    "warnings": self.warnings, "uncertainty": self.uncertainty, "validation": self.validation,
+                    **({"model": self.model} if self.model else {})},
         }
 
     def write_json(self, path: str | Path) -> Path:
@@ -115,6 +117,12 @@ class FitResult:
         return write_report(self, directory)
 
     def export(self, directory: str | Path) -> list[Path]:
+        """Parameterized FMUs and an SSV file (pendfmu's components: also Modelica modifiers)."""
+        if self.model:
+            from pendfmu.export.model import export_model
+            from pendfmu.fitting.models import load_model
+
+            return export_model(load_model(self.model), self.parameters, directory, f"a pendfmu fit ({self.stage})")
         from pendfmu.export import export_all
 
         return export_all(self.parameters, directory)

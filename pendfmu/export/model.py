@@ -1,0 +1,83 @@
+"""Export fitted values for a user's FMU or SSP system (not one of pendfmu's components).
+
+Writes into one folder:
+
+- for each FMU of the model, ``<Instance>.fmu``: a copy of it whose modelDescription.xml
+  carries the fitted values as the parameters' start values (and says so in its
+  description); every other member, the binaries included, byte for byte. The GUID is
+  kept: a binary pendfmu did not build checks it at fmi2Instantiate;
+- ``parameters.ssv``: SSP 1.0 parameter values of every parameter, named
+  ``Instance.parameter`` (validated against the SSV schema).
+
+What the copy can and cannot do: an importer that sets every parameter to the start value
+its model description declares (pendfmu does; SSP tools apply the SSV) runs it with the
+fitted values. The binary itself still starts from the defaults it was compiled with,
+which only its exporter can change, and an importer that leaves parameters alone gets
+those: fmpy's simulate_fmu leaves a co-simulation FMU's parameters alone (its
+apply_default_start_values is deprecated and, measured with fmpy 0.3.x, not applied to
+co-simulation); give such a tool the values (start_values=...), or the SSV.
+"""
+
+from __future__ import annotations
+
+import os
+import zipfile
+from collections.abc import Mapping
+from pathlib import Path
+
+from pendfmu.export.fmu import MODEL_DESCRIPTION, _copy_info, _now, _parse
+from pendfmu.simulator.model import Model
+from pendfmu.ssp import ParameterSet, ParameterValue, write_ssv
+
+SSV_FILE = "parameters.ssv"
+
+
+def export_model(model: Model, values: Mapping[str, float], out_dir: str | Path,
+                 source: str = "a pendfmu fit") -> list[Path]:
+    """Write the parameterized FMU copies and the SSV file of `model` with `values` (the
+    model's names); return their paths. Values are checked by the model first."""
+    from pendfmu.fitting.models import checked_values
+
+    checked = checked_values(model, values)
+    per = model.split({**model.defaults(), **checked})
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, instance in model.instances.items():
+        if instance.fmu is None:
+            continue  # pendfmu's own components: pendfmu export writes those
+        paths.append(_parameterized_copy(Path(instance.fmu), per[name], out_dir / f"{name}.fmu", source))
+    entries = {f"{name}.{parameter}": ParameterValue(float(value), None, "Real")
+               for name, parameters in per.items() for parameter, value in sorted(parameters.items())}
+    paths.append(write_ssv(ParameterSet("fitted", entries), out_dir / SSV_FILE))
+    return paths
+
+
+def _parameterized_copy(original: Path, values: Mapping[str, float], target: Path, source: str) -> Path:
+    partial = target.with_name(f".{target.name}.{os.getpid()}.part")
+    try:
+        with zipfile.ZipFile(original) as src, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as dst:
+            for info in src.infolist():
+                data = src.read(info)
+                if info.filename == MODEL_DESCRIPTION:
+                    data = _with_start_values(data, values, source)
+                dst.writestr(_copy_info(info), data)
+        os.replace(partial, target)
+    finally:
+        partial.unlink(missing_ok=True)
+    return target
+
+
+def _with_start_values(description: bytes, values: Mapping[str, float], source: str) -> bytes:
+    """The model description with new start values of Real parameters (repr: exact)."""
+    from lxml import etree
+
+    root = _parse(description)
+    root.set("description", f"{root.get('description', '')} [start values from {source}: {', '.join(values)}]")
+    root.set("generationDateAndTime", _now())
+    for variable in root.iterfind("ModelVariables/ScalarVariable"):
+        real = variable.find("Real")
+        if variable.get("name") in values and variable.get("causality") == "parameter" and real is not None:
+            real.set("start", repr(float(values[variable.get("name")])))
+    data = etree.tostring(root.getroottree(), xml_declaration=True, encoding="UTF-8")
+    return data if data.endswith(b"\n") else data + b"\n"
