@@ -25,6 +25,9 @@ from fmpy.logging import addLoggerProxy
 from pendfmu.errors import BadInput, FMUError
 from pendfmu.components import COMPONENTS
 from pendfmu.fmubuild import ensure_fmu
+from pendfmu.simulator.native import unit_of
+
+FMI2_WARNING = 1  # fmi2Status: a call that returns more than fmi2Warning failed
 
 _UNPACKED: dict[str, tuple[Path, object]] = {}
 _DESCRIPTIONS: dict[tuple, object] = {}
@@ -102,6 +105,7 @@ class ComponentFMU:
         """A new instance (fmpy's freeInstance also unloads the library: load it anew)."""
         self.slave = FMU2Slave(**self._load)
         self._call(self.slave.instantiate, callbacks=self._callbacks, loggingOn=self._log_events)
+        self.unit = unit_of(self.slave)  # what the native loop calls (native.py)
 
     # -- plumbing
 
@@ -135,22 +139,30 @@ class ComponentFMU:
         return [self.vr[n] for n in names]
 
     def _initialize(self, parameters: Mapping[str, float] | None, start_time: float) -> None:
-        self._call(self.slave.setupExperiment, startTime=start_time)
-        self._call(self.slave.enterInitializationMode)
+        """Set up, enter initialization mode, set the parameters, exit: straight through the
+        FMU's functions, not fmpy's wrappers (a fit does this before every simulation, and
+        the wrappers cost more than the calls)."""
+        dll, component = self.slave.dll, self.slave.component
+        self._check("fmi2SetupExperiment", dll.fmi2SetupExperiment(component, 0, 0.0, start_time, 0, 0.0))
+        self._check("fmi2EnterInitializationMode", dll.fmi2EnterInitializationMode(component))
         if parameters:
             self.set_parameters(parameters)
-        self._call(self.slave.exitInitializationMode)
+        self._check("fmi2ExitInitializationMode", dll.fmi2ExitInitializationMode(component))
         self.time = start_time
+
+    def _check(self, function: str, status: int) -> None:
+        """Raise FMUError for a status worse than fmi2Warning, with what the FMU logged."""
+        if status > FMI2_WARNING:
+            said = "; ".join(self.messages[-3:]) or f"{function} returned status {status}"
+            raise FMUError(f"{self.name}: {said}", instance=self.name, function=function,
+                           messages=self.messages[-3:])
 
     def restart(self, parameters: Mapping[str, float], start_time: float = 0.0) -> None:
         """Reset and initialize again with new parameter values (cheaper than a new instance).
         An FMU whose fmi2Reset fails (not every exporter implements it) is freed and
         instantiated anew, now and for every later run."""
-        if self.resets:
-            try:
-                self._call(self.slave.reset)
-            except FMUError:
-                self.resets = False
+        if self.resets and self.slave.dll.fmi2Reset(self.slave.component) > FMI2_WARNING:
+            self.resets = False
         if not self.resets:
             self.slave.freeInstance()
             self._instantiate()

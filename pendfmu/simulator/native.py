@@ -154,11 +154,12 @@ def _refs(values: list[int]):
 MAX_INPUTS = 64
 
 
-def run_single(slave, times: np.ndarray, input_vrs: list[int], inputs: np.ndarray, output_vrs: list[int],
+def run_single(unit: Unit, times: np.ndarray, input_vrs: list[int], inputs: np.ndarray, output_vrs: list[int],
                slopes: np.ndarray | None = None) -> tuple[np.ndarray, int]:
-    """Step an initialized instance through `times`; each input is set to its value at
-    the step's start and, with `slopes`, follows that slope over the step (linear
-    interpolation through fmi2SetRealInputDerivatives), else it is held.
+    """Step an initialized instance (`unit`: unit_of its FMU2Slave) through `times`; each
+    input is set to its value at the step's start and, with `slopes`, follows that slope
+    over the step (linear interpolation through fmi2SetRealInputDerivatives), else it is
+    held.
 
     Returns (outputs n_points x n_outputs, index of a failing point or -1)."""
     if len(input_vrs) > MAX_INPUTS:
@@ -168,7 +169,6 @@ def run_single(slave, times: np.ndarray, input_vrs: list[int], inputs: np.ndarra
     if slopes is not None:
         slopes = np.ascontiguousarray(slopes, dtype=float).reshape(len(times), len(input_vrs))
     outputs = np.empty((len(times), len(output_vrs)))
-    unit = unit_of(slave)
     failed = library().pendfmu_run_single(
         ctypes.byref(unit), len(times), _doubles(times), len(input_vrs), _refs(input_vrs), _doubles(inputs),
         None if slopes is None else _doubles(slopes), len(output_vrs), _refs(output_vrs), _doubles(outputs))

@@ -72,6 +72,9 @@ class Replay:
         self.refine = refine
         self._fmus: dict[str, ComponentFMU] = {}
         self._kept: dict[str, tuple[bytes, dict[Port, np.ndarray]]] = {}
+        self._layouts: dict[tuple[str, ...], tuple] = {}
+        self._drive_columns: dict[str, tuple] = {}
+        self._times_key = _grid_key(self.times)
 
     # -- instances
 
@@ -90,18 +93,16 @@ class Replay:
 
     def simulate(self, values: Mapping[str, float], outputs: Sequence[str]) -> dict[str, np.ndarray]:
         """The named outputs at the recording's (decimated) time stamps for these values."""
-        wanted = {name: self.model.port(name, "output") for name in outputs}
         if self.coupled:
-            return self._coupled(values, wanted)
+            return self._coupled(values, {name: self.model.port(name, "output") for name in outputs})
+        wanted, runs = self._layout(tuple(outputs))
         points, samples = self._grid(values)
+        grid_key = self._times_key if points is self.times else _grid_key(points)
         per = self.model.split(values)
         signals: dict[Port, np.ndarray] = {}
         upstream: dict[str, bytes] = {}
-        for (name,) in self.model.order:
-            feeding = {Port(c.source, c.output) for c in self.model.connections if c.source == name}
-            needed = sorted({p for p in wanted.values() if p.instance == name} | feeding, key=str)
-            sources = [c.source for c in self.model.connections if c.target == name]
-            key = _key(per[name], [upstream[s] for s in sources], points)
+        for name, needed, sources in runs:
+            key = _key(per[name], [upstream[s] for s in sources], grid_key)
             upstream[name] = key
             kept = self._kept.get(name)
             if kept is not None and kept[0] == key and all(p in kept[1] for p in needed):
@@ -112,6 +113,20 @@ class Replay:
             signals.update(result)
         return {name: signals[port][samples] for name, port in wanted.items()}
 
+    def _layout(self, outputs: tuple[str, ...]):
+        """(output name -> port, [(instance, ports it must record, instances feeding it)] in
+        stepping order) for these outputs: the same for every run, so worked out once."""
+        layout = self._layouts.get(outputs)
+        if layout is None:
+            wanted = {name: self.model.port(name, "output") for name in outputs}
+            runs = []
+            for (name,) in self.model.order:
+                feeding = {Port(c.source, c.output) for c in self.model.connections if c.source == name}
+                needed = sorted({p for p in wanted.values() if p.instance == name} | feeding, key=str)
+                runs.append((name, needed, [c.source for c in self.model.connections if c.target == name]))
+            layout = self._layouts[outputs] = (wanted, runs)
+        return layout
+
     def _grid(self, values: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
         if self.refine is None:
             return self.times, np.arange(len(self.times))
@@ -121,6 +136,31 @@ class Replay:
     def _run(self, name: str, parameters: Mapping[str, float], points: np.ndarray, samples: np.ndarray,
              signals: Mapping[Port, np.ndarray], outputs: list[Port]) -> dict[Port, np.ndarray]:
         fmu = self._fmu(name, parameters)
+        names, columns, slopes = self._driven(name, fmu, points, samples)
+        names, columns, slopes = list(names), list(columns), list(slopes)
+        for c in self.model.connections:
+            if c.target == name:
+                names.append(c.input)
+                column = signals[Port(c.source, c.output)]
+                columns.append(column)
+                slopes.append(_slopes(points, column) if fmu.can_interpolate_inputs else None)
+        matrix = np.column_stack(columns) if columns else np.empty((len(points), 0))
+        interpolate = any(s is not None and np.any(s) for s in slopes)
+        slope_matrix = (np.column_stack([np.zeros(len(points)) if s is None else s for s in slopes])
+                        if interpolate else None)
+        result, failed = run_single(fmu.unit, points, [fmu.vr[n] for n in names], matrix,
+                                    [fmu.vr[p.variable] for p in outputs], slope_matrix)
+        if failed >= 0:
+            said = "; ".join(fmu.messages[-3:])
+            raise FMUError(f"{name} at t = {points[failed]:.9g} s: {said}", instance=name, time=float(points[failed]),
+                           messages=fmu.messages[-3:])
+        return {port: result[:, j] for j, port in enumerate(outputs)}
+
+    def _driven(self, name: str, fmu: ComponentFMU, points: np.ndarray, samples: np.ndarray):
+        """(input names, columns on the grid, slopes or None where held) of the instance's
+        recorded drives; on the recording's own grid the same for every run, so kept."""
+        if points is self.times and name in self._drive_columns:
+            return self._drive_columns[name]
         steps = np.diff(points)
         if not fmu.can_vary_step and len(steps) and np.ptp(steps) > 1e-9 * float(np.mean(steps)):
             raise ModelError(f"{name}: the FMU cannot vary its communication step "
@@ -136,23 +176,11 @@ class Replay:
                 if linear and not fmu.can_interpolate_inputs:
                     raise ModelError(f"{port}: linear interpolation asked for, but the FMU cannot interpolate "
                                      f"inputs (canInterpolateInputs is false): its inputs are held")
-                slopes.append(_slopes(points, column) if linear else np.zeros(len(points)))
-        for c in self.model.connections:
-            if c.target == name:
-                names.append(c.input)
-                column = signals[Port(c.source, c.output)]
-                columns.append(column)
-                slopes.append(_slopes(points, column) if fmu.can_interpolate_inputs else np.zeros(len(points)))
-        matrix = np.column_stack(columns) if columns else np.empty((len(points), 0))
-        interpolate = any(np.any(s) for s in slopes)
-        result, failed = run_single(fmu.slave, points, [fmu.vr[n] for n in names], matrix,
-                                    [fmu.vr[p.variable] for p in outputs],
-                                    np.column_stack(slopes) if interpolate else None)
-        if failed >= 0:
-            said = "; ".join(fmu.messages[-3:])
-            raise FMUError(f"{name} at t = {points[failed]:.9g} s: {said}", instance=name, time=float(points[failed]),
-                           messages=fmu.messages[-3:])
-        return {port: result[:, j] for j, port in enumerate(outputs)}
+                slopes.append(_slopes(points, column) if linear else None)
+        driven = (tuple(names), tuple(columns), tuple(slopes))
+        if points is self.times:
+            self._drive_columns[name] = driven
+        return driven
 
     def _coupled(self, values: Mapping[str, float], wanted: Mapping[str, Port]) -> dict[str, np.ndarray]:
         """A model whose components feed each other runs in the co-simulation master
@@ -199,10 +227,15 @@ def _on_grid(drive: Drive, times: np.ndarray, points: np.ndarray, samples: np.nd
     return drive.values[np.searchsorted(samples, np.arange(len(points)), side="right") - 1]
 
 
-def _key(parameters: Mapping[str, float], upstream: Sequence[bytes], points: np.ndarray) -> bytes:
+def _grid_key(points: np.ndarray) -> bytes:
+    """A digest of a time grid (the recording's own is hashed once per Replay)."""
+    return hashlib.sha256(np.ascontiguousarray(points).tobytes()).digest()
+
+
+def _key(parameters: Mapping[str, float], upstream: Sequence[bytes], grid: bytes) -> bytes:
     """What an instance's outputs depend on: its parameters, its predecessors' keys, the grid."""
     digest = hashlib.sha256(repr(sorted(parameters.items())).encode())
     for key in upstream:
         digest.update(key)
-    digest.update(np.ascontiguousarray(points).tobytes())
+    digest.update(grid)
     return digest.digest()
