@@ -116,6 +116,7 @@ class Residuals:
         self.failures = 0
         self.last_failure = ""
         self.size = sum(len(s.times) * len(e.match) for s, e in zip(self.simulators, self.experiments))
+        self._target_cache: dict[tuple[int, str], tuple] = {}
 
     def values(self, u: Sequence[float], experiment: Experiment) -> dict[str, float]:
         """All parameter values one experiment runs with."""
@@ -138,9 +139,9 @@ class Residuals:
             self.last_failure = str(error)
             return np.full(self.size, PENALTY)
         parts = []
-        for simulator, experiment, result in zip(self.simulators, self.experiments, simulated):
+        for k, (experiment, result) in enumerate(zip(self.experiments, simulated)):
             for output, column in experiment.match.items():
-                parts.append(self._scaled(experiment, column, result[output], simulator.index))
+                parts.append(self._scaled(k, column, result[output]))
         residual = np.concatenate(parts)
         if not np.all(np.isfinite(residual)):
             self.failures += 1
@@ -148,13 +149,22 @@ class Residuals:
             return np.full(self.size, PENALTY)
         return residual
 
-    def _scaled(self, experiment: Experiment, column: str, simulated: np.ndarray, index: np.ndarray) -> np.ndarray:
-        error = simulated - experiment.recorded(column)[index]
-        scale = experiment.scales[column]
-        resolution = experiment.recording.resolution(column)
+    def _scaled(self, k: int, column: str, simulated: np.ndarray) -> np.ndarray:
+        recorded, scale, resolution = self._targets(k, column)
+        error = simulated - recorded
         if self.cost == "quantized" and resolution:
             error = np.sign(error) * np.maximum(np.abs(error) - resolution / 2, 0.0)
         return error / scale
+
+    def _targets(self, k: int, column: str) -> tuple[np.ndarray, float, float | None]:
+        """(recorded values at the simulated samples, error scale, resolution) of one
+        experiment's column: the same for every evaluation, so looked up once."""
+        key = (k, column)
+        if key not in self._target_cache:
+            experiment, index = self.experiments[k], self.simulators[k].index
+            self._target_cache[key] = (experiment.recorded(column)[index], experiment.scales[column],
+                                       experiment.recording.resolution(column))
+        return self._target_cache[key]
 
     def sum_of_squares(self, u: Sequence[float]) -> float:
         residual = self(u)
