@@ -12,7 +12,8 @@ pulling in the others. Each module defines its narrow classes on these bases::
     |   +-- ParameterError         simulator.component
     |   +-- SspError               ssp
     +-- Suspicious                 exit 3 under --strict: the data look wrong (fitting.plausibility)
-    +-- FMUError (RuntimeError)    an FMU refused a call: which instance, function, time, what it logged
+    +-- FMUError (RuntimeError)    exit 4: an FMU refused a call (which instance, function,
+        |                          time, what it logged): the model failed, not pendfmu
         +-- CouplingError          an algebraic loop that did not settle (simulator.coupled)
 
 Anything else reaching the command line is an internal failure (exit 1).
@@ -56,3 +57,4 @@ class FMUError(PendfmuError, RuntimeError):
 
 EXIT_BAD_INPUT = 2
 EXIT_SUSPICIOUS = 3
+EXIT_MODEL_FAILED = 4

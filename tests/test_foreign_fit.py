@@ -184,3 +184,77 @@ def test_the_fit_exports_a_parameterized_copy_and_an_ssv(cart, fitted, tmp_path)
     recorded = pd.read_csv(recordings[PREDICTION_NAME])
     rms = float(np.sqrt(np.mean((pd.read_csv(out)["x"] - recorded["x"]) ** 2)))
     assert rms / RESOLUTION < 2.0
+
+
+def _colliding_step(tmp_path, force_constant=2.0):
+    """A recording of Colliding under a 1.5 A step from rest, from its closed form (not the
+    FMU): m_p v' = eta k_F I - k_fwc v gives v = F/k_fwc (1 - e^(-t/tau)), tau = m_p/k_fwc."""
+    eta, m_p, k_fwc, current = 0.9, 0.5, 4.0, 1.5
+    time = np.round(np.arange(0, 601) * 1e-3, 12)
+    force, tau = eta * force_constant * current, m_p / k_fwc
+    x = force / k_fwc * (time - tau * (1 - np.exp(-time / tau)))
+    path = tmp_path / "colliding.csv"
+    pd.DataFrame({"time": time, "I": np.full_like(time, current), "x": x}).to_csv(path, index=False,
+                                                                                  float_format="%.17g")
+    (tmp_path / "colliding.json").write_text(json.dumps({"parameters": {"eta": eta, "m_p": m_p, "k_fwc": k_fwc}}))
+    return path
+
+
+def test_names_that_are_also_the_rigs_mean_what_the_model_says(tmp_path, capsys):
+    """Colliding's eta, m_p and k_fwc are its own: m_p is the mass it accelerates (the rig's
+    pendulum mass may be 0, this one may not), I its current input. Recordings, sidecars,
+    parameters files and --free are read with the model's names and checked against its
+    ranges: it simulates to its closed form and its force constant is fitted. A value its
+    binary refuses ends the command with exit code 4 and the FMU's own words."""
+    fmu = build("Colliding", tmp_path)
+    recording = _colliding_step(tmp_path)
+    (tmp_path / "k.json").write_text(json.dumps({"parameters": {"k_F": 2.0}}))
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", "--fmu", str(fmu), "--input", str(recording), "--params", str(tmp_path / "k.json"),
+                 "--out", str(out)]) == 0
+    assert np.max(np.abs(pd.read_csv(out)["x"] - pd.read_csv(recording)["x"])) < 1e-9
+
+    (tmp_path / "start.json").write_text(json.dumps({"parameters": {"k_F": 3.0}}))
+    fitted = tmp_path / "fitted.json"
+    assert main(["fit", "--fmu", str(fmu), str(recording), "--free", "k_F", "--params", str(tmp_path / "start.json"),
+                 "--out", str(fitted), "--seed", "1", "--workers", "1"]) == 0
+    assert json.loads(fitted.read_text())["parameters"]["k_F"] == pytest.approx(2.0, rel=1e-6)
+
+    (tmp_path / "colliding.json").unlink()  # the sidecar's m_p would win over the parameters file
+    (tmp_path / "zero.json").write_text(json.dumps({"parameters": {"m_p": 0.0, "k_F": 2.0}}))
+    capsys.readouterr()
+    code = main(["simulate", "--fmu", str(fmu), "--input", str(recording), "--params", str(tmp_path / "zero.json"),
+                 "--out", str(tmp_path / "zero.csv")])
+    err = capsys.readouterr().err
+    assert code == 4 and "the model failed: Colliding: m_p = 0 is out of range: a mass must be > 0" in err
+
+
+def test_an_interrupted_foreign_fit_resumes_to_the_same_result(cart, tmp_path, monkeypatch):
+    """Ctrl-C during `pendfmu fit --fmu` writes the best values so far and a checkpoint;
+    --resume ends at the result of a fit never interrupted, to the bit."""
+    from conftest import result_without_time
+
+    from pendfmu.fitting.residuals import Residuals
+
+    folder, fmu, recordings = cart
+    command = ["fit", "--fmu", str(fmu), *(str(recordings[n]) for n in FIT_NAMES), "--free", *FITTED,
+               "--params", str(folder / "start.json"), "--seed", "3", "--workers", "1", "--uncertainty", "jacobian"]
+    calls = {"n": 0, "stop_at": None}
+    original = Residuals.sum_of_squares
+
+    def counted(self, u):
+        calls["n"] += 1
+        if calls["n"] == calls["stop_at"]:
+            raise KeyboardInterrupt
+        return original(self, u)
+
+    monkeypatch.setattr(Residuals, "sum_of_squares", counted)
+    assert main(command + ["--out", str(tmp_path / "straight.json")]) == 0
+    assert calls["n"] > 40, "the global search did not run in this process"
+    calls.update(n=0, stop_at=40)
+    out = tmp_path / "fit.json"
+    assert main(command + ["--out", str(out)]) == 130
+    assert set(json.loads(out.read_text())["parameters"]) >= set(FITTED)
+    calls.update(n=0, stop_at=None)
+    assert main(command + ["--out", str(out), "--resume"]) == 0
+    assert result_without_time(out) == result_without_time(tmp_path / "straight.json")

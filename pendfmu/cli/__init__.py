@@ -15,7 +15,7 @@ import traceback
 from collections.abc import Sequence
 
 from pendfmu.cli import build, demo, export, fit, rig, simulate
-from pendfmu.errors import EXIT_BAD_INPUT, EXIT_SUSPICIOUS, BadInput, Suspicious
+from pendfmu.errors import EXIT_BAD_INPUT, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, FMUError, Suspicious
 
 SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export}
 
@@ -48,6 +48,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Suspicious as error:
         print(f"pendfmu {args.command}: {error}", file=sys.stderr)
         return EXIT_SUSPICIOUS
+    except FMUError as error:
+        print(f"pendfmu {args.command}: the model failed: {error}", file=sys.stderr)
+        return EXIT_MODEL_FAILED
     except KeyboardInterrupt:
         print(f"pendfmu {args.command}: interrupted", file=sys.stderr)
         return 130
