@@ -130,3 +130,23 @@ def test_a_scheduler_without_workers_is_a_clear_error(cart_residuals, monkeypatc
     with distributed.LocalCluster(n_workers=0, host="127.0.0.1", dashboard_address=":0") as cluster:
         with pytest.raises(UsageError, match=f"{cluster.scheduler_address} has no workers"):
             optimizer._Evaluator(cart_residuals, 1, {}, cluster.scheduler_address)
+
+
+def test_a_foreign_fmu_fit_on_dask_equals_local_processes(cluster, tmp_path):
+    """`pendfmu fit --fmu` takes --scheduler as the stages do: the workers load the user's
+    FMU from its path and the result is the local processes' one."""
+    import json
+
+    from foreign.build import build
+    from foreign.recordings import FIT_NAMES, FITTED, TRUTH, write_recordings
+
+    fmu = build("ForeignCart", tmp_path)
+    recordings = write_recordings(fmu, tmp_path / "recordings")
+    start = {name: TRUTH[name] * (1.3 if k % 2 == 0 else 0.7) for k, name in enumerate(FITTED)}
+    (tmp_path / "start.json").write_text(json.dumps({"parameters": {"m": TRUTH["m"], **start}}))
+    command = ["fit", "--fmu", str(fmu), *(str(recordings[n]) for n in FIT_NAMES), "--free", *FITTED,
+               "--params", str(tmp_path / "start.json"), "--seed", "5", "--uncertainty", "jacobian"]
+    assert main(command + ["--out", str(tmp_path / "local.json"), "--workers", "2"]) == 0
+    assert main(command + ["--out", str(tmp_path / "dask.json"), "--scheduler", cluster.scheduler_address]) == 0
+    assert result_without_time(tmp_path / "dask.json") == result_without_time(tmp_path / "local.json")
+    assert result_without_time(tmp_path / "dask.json")["parameters"]["k_u"] == pytest.approx(TRUTH["k_u"], rel=0.01)
