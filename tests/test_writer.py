@@ -6,11 +6,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import orjson
 import pytest
 import scipy.io
 
 from pendfmu.recording import RecordingError, read_recording
-from pendfmu.recording.csv_text import format_rows, header_line
+from pendfmu.recording import csv_text
+from pendfmu.recording.csv_text import ROWS_PER_BLOCK, format_rows, header_line
 from pendfmu.recording.writer import OUTPUT_SUFFIXES, check_output_path, write_signals
 
 AWKWARD = [5e-324, -5e-324, 1e-300, 2.2250738585072014e-308, 2.225073858507201e-308, 1e-5, 1e-7, 0.1 + 0.2, 0.1, -0.0,
@@ -63,6 +65,39 @@ def test_rows_and_columns_keep_their_order():
     table = np.array([[0.0, 1.5, -2.25], [2e-4, 1e-300, 1e22]])
     assert bytes(format_rows(table)) == b"0.0,1.5,-2.25\n0.0002,1e-300,1e+22\n"
     assert bytes(format_rows(np.zeros((0, 3)))) == b""
+
+
+def rows_one_by_one(table: np.ndarray) -> bytes:
+    """The CSV lines built the slow, obvious way: each row's numbers as orjson writes them."""
+    return b"".join(orjson.dumps(row, option=orjson.OPT_SERIALIZE_NUMPY)[1:-1] + b"\n" for row in table)
+
+
+@pytest.mark.parametrize("rows", [1, ROWS_PER_BLOCK - 1, ROWS_PER_BLOCK, ROWS_PER_BLOCK + 1, 3 * ROWS_PER_BLOCK + 5])
+@pytest.mark.parametrize("width", [1, 2, 7])
+def test_blocks_of_rows_join_into_the_same_lines(rows, width):
+    """The table is serialized a block at a time: no row is split, lost or repeated at a
+    block's edge, whatever the row count and width."""
+    rng = np.random.default_rng(rows * 10 + width)
+    table = rng.normal(size=(rows, width)) * 10.0 ** rng.integers(-30, 30, size=(rows, width))
+    text = bytes(format_rows(table))
+    assert text == rows_one_by_one(table)
+    back = np.array([float(cell) for line in text.decode().splitlines() for cell in line.split(",")])
+    assert back.tobytes() == table.tobytes()
+
+
+def test_a_buffer_too_small_for_the_text_grows(monkeypatch):
+    """The output is sized for orjson's longest number; were a number ever longer, the
+    buffer grows instead of failing or cutting the text."""
+    table = np.array(AWKWARD * (3 * ROWS_PER_BLOCK)).reshape(-1, 9)  # several blocks, growing after each
+    monkeypatch.setattr(csv_text, "_MOST_BYTES_PER_NUMBER", 1)
+    assert bytes(format_rows(table)) == rows_one_by_one(table)
+
+
+def test_tables_of_any_memory_layout_give_the_same_lines():
+    table = np.random.default_rng(3).normal(size=(2000, 6))
+    expected = rows_one_by_one(table)
+    assert bytes(format_rows(np.asfortranarray(table))) == expected
+    assert bytes(format_rows(np.repeat(table, 2, axis=1)[:, ::2])) == expected
 
 
 def test_non_finite_values_are_written_as_python_reads_them():
