@@ -24,8 +24,8 @@ class Variable:
     """One FMI scalar variable.
 
     ``low``/``high`` bound a parameter's physical range; the FMU rejects values outside
-    with fmi2Error. ``low_open`` makes the lower bound exclusive (a mass of 0 is not a
-    mass). ``state`` marks a continuous state; ``derivative_of`` names the state this
+    with fmi2Error, and pendfmu.ranges checks them in Python. ``low_open`` makes the lower
+    bound exclusive (a mass of 0 is not a mass). ``state`` marks a continuous state; ``derivative_of`` names the state this
     variable is the time derivative of. ``depends_on`` lists, for outputs and
     derivatives, the states and inputs they depend on directly (FMI ModelStructure);
     ``None`` means "not declared" (depends on everything).
@@ -44,12 +44,6 @@ class Variable:
     state: bool = False
     derivative_of: str | None = None
     depends_on: tuple[str, ...] | None = None
-
-    def allowed_range(self) -> str:
-        """Human-readable allowed range, as used in error messages."""
-        lo = "-inf" if self.low is None else repr(self.low)
-        hi = "inf" if self.high is None else repr(self.high)
-        return f"{'(' if self.low_open or self.low is None else '['}{lo}, {hi}{')' if self.high is None else ']'}"
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from pendfmu.components import COMPONENTS, Variable
 from pendfmu.errors import BadInput
+from pendfmu.ranges import outside
 
 # Initial states set through the sidecar's "initial" block (signal name -> parameter).
 INITIAL_STATE_PARAMETERS = {"x": "x0", "v": "v0", "phi": "phi0", "w": "w0", "I": "I0", "I_mean": "I0"}
@@ -51,18 +52,10 @@ def check_value(name: str, value: object, where: str = "") -> float:
         raise ParameterFileError(f"{prefix}parameter {name} = {value} is not finite")
     # A shared name is valid when one of its components takes it: m_p = 0 is a cart with
     # the pendulum removed, although a Pendulum cannot have zero mass (it then must not run).
-    owners = [COMPONENTS[c].parameters[name] for c in parameter_owners(name)]
-    if not any(in_range(variable, value) for variable in owners):
-        ranges = " or ".join(sorted({v.allowed_range() for v in owners}))
-        raise ParameterFileError(f"{prefix}parameter {name} = {value:g} is outside its physical range "
-                                 f"{ranges} [{owners[0].unit}]")
+    problem = outside(name, value, [COMPONENTS[c].parameters[name] for c in parameter_owners(name)])
+    if problem:
+        raise ParameterFileError(f"{prefix}parameter {problem}")
     return value
-
-
-def in_range(variable: Variable, value: float) -> bool:
-    if variable.low is not None and (value < variable.low or (variable.low_open and value == variable.low)):
-        return False
-    return variable.high is None or value <= variable.high
 
 
 def check_parameters(values: Mapping[str, object], where: str = "") -> dict[str, float]:

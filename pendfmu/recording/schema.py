@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from pendfmu.components import COMPONENTS
 from pendfmu.errors import BadInput
+from pendfmu.ranges import outside
 
 
 def _signal_names() -> tuple[str, ...]:
@@ -109,17 +110,7 @@ def _parameter_problem(name: str, value: float) -> str | None:
         return f"unknown parameter{_suggest(name, PARAMETER_NAMES)}; valid: {', '.join(PARAMETER_NAMES)}"
     if not math.isfinite(value):
         return f"must be finite, got {value!r}"
-    ranges = []
-    for component in COMPONENTS.values():
-        var = component.parameters.get(name)
-        if var is None:
-            continue
-        below = var.low is not None and (value < var.low or (var.low_open and value == var.low))
-        above = var.high is not None and value > var.high
-        if not (below or above):
-            return None
-        ranges.append(f"{var.allowed_range()} in {component.name}")
-    return f"{value!r} is outside the allowed range ({'; '.join(ranges)})"
+    return outside(name, value, [c.parameters[name] for c in COMPONENTS.values() if name in c.parameters])
 
 
 def _initial_problem(name: str, value: float) -> str | None:

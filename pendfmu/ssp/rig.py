@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 from pendfmu.components import COMPONENTS
+from pendfmu.ranges import outside
 from pendfmu.ssp.fmu import FmuDescription, describe_fmu
 from pendfmu.ssp.model import Connection, Experiment, FmuComponent, ParameterValue, System
 
@@ -53,11 +53,9 @@ def _targets(key: str, starts: dict[str, dict[str, ParameterValue]]) -> list[tup
 
 def _check_range(component: str, name: str, value: float) -> None:
     """Reject a value the FMU would reject at instantiation, while the cause is still obvious."""
-    variable = COMPONENTS[component].variable(name)
-    low_ok = variable.low is None or (value > variable.low if variable.low_open else value >= variable.low)
-    high_ok = variable.high is None or value <= variable.high
-    if not (math.isfinite(value) and low_ok and high_ok):
-        raise ValueError(f"{component}.{name} = {value!r} is outside its allowed range {variable.allowed_range()}")
+    problem = outside(f"{component}.{name}", value, [COMPONENTS[component].variable(name)])
+    if problem:
+        raise ValueError(problem)
 
 
 def rig_parameters(eta: float, parameters: dict | None,
