@@ -18,6 +18,11 @@ from dataclasses import dataclass, field
 # The internal fixed step of the Co-Simulation integrator: every component has it.
 SOLVER_STEP = 1e-4
 
+# A lead screw with eta <= 0.5 is self-locking: the pendulum cannot push the cart back
+# (MODEL.md: A(eta) = max(0, (2 eta - 1) / eta) is zero there), so a rig needs the
+# pendulum's state fed back to the cart only above it.
+SELF_LOCKING_ETA = 0.5
+
 
 @dataclass(frozen=True)
 class Variable:
@@ -156,10 +161,10 @@ CART = Component(
         _solver_step(),
         Variable("I", "input", "continuous", 0.0, "A", "Motor current"),
         Variable("phi", "input", "continuous", math.pi, "rad",
-                 "Pendulum angle from the upward vertical (used when eta > 0.5)"),
-        Variable("w", "input", "continuous", 0.0, "rad/s", "Pendulum angular speed (used when eta > 0.5)"),
+                 f"Pendulum angle from the upward vertical (used when eta > {SELF_LOCKING_ETA})"),
+        Variable("w", "input", "continuous", 0.0, "rad/s", f"Pendulum angular speed (used when eta > {SELF_LOCKING_ETA})"),
         Variable("alpha", "input", "continuous", 0.0, "rad/s2",
-                 "Pendulum angular acceleration (used when eta > 0.5)"),
+                 f"Pendulum angular acceleration (used when eta > {SELF_LOCKING_ETA})"),
         Variable("x", "output", "continuous", None, "m", "Cart position", state=True, depends_on=("x",)),
         Variable("v", "output", "continuous", None, "m/s", "Cart speed", state=True, derivative_of="x",
                  depends_on=("v",)),
@@ -207,3 +212,20 @@ PENDULUM = Component(
 )
 
 COMPONENTS: dict[str, Component] = {c.name: c for c in (CURRENT_LOOP, CART, PENDULUM)}
+
+
+def parameter_table() -> dict[str, Variable]:
+    """Every parameter of the rig by name, with its table row. A name that several
+    components have (m_p and l) is one physical quantity: it appears once, with the first
+    component's row."""
+    rows: dict[str, Variable] = {}
+    for component in COMPONENTS.values():
+        for name, variable in component.parameters.items():
+            rows.setdefault(name, variable)
+    return rows
+
+
+def rig_defaults() -> dict[str, float]:
+    """MODEL.md's reference rig: every rig parameter at its table default. solver_step is
+    left out: it is a setting of each FMU's integrator, not a property of the rig."""
+    return {name: float(variable.start) for name, variable in parameter_table().items() if name != "solver_step"}

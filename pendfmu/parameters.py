@@ -14,7 +14,7 @@ import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from pendfmu.components import COMPONENTS, Variable
+from pendfmu.components import COMPONENTS, parameter_table
 from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
 
@@ -26,15 +26,6 @@ class ParameterFileError(BadInput):
     """Bad parameter input: reported to the user in one line (exit code 2)."""
 
 
-def known_parameters() -> dict[str, Variable]:
-    """Every parameter name of the rig with its table entry (the first component's)."""
-    known: dict[str, Variable] = {}
-    for component in COMPONENTS.values():
-        for name, variable in component.parameters.items():
-            known.setdefault(name, variable)
-    return known
-
-
 def parameter_owners(name: str) -> list[str]:
     return [c.name for c in COMPONENTS.values() if name in c.parameters]
 
@@ -42,7 +33,7 @@ def parameter_owners(name: str) -> list[str]:
 def check_value(name: str, value: object, where: str = "") -> float:
     """The value as a float, or a ParameterFileError naming the parameter and its range."""
     prefix = f"{where}: " if where else ""
-    known = known_parameters()
+    known = parameter_table()
     if name not in known:
         raise ParameterFileError(f"{prefix}unknown parameter {name!r}; valid names: {', '.join(sorted(known))}")
     if isinstance(value, bool) or not isinstance(value, (int, float)):

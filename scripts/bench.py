@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendfmu.components import CART
 from pendfmu.fmubuild.compiler import CFLAGS, FMI_HEADERS
 from pendfmu.simulator.component import ComponentFMU
 from pendfmu.simulator.master import ExternalInput, Master
@@ -80,7 +81,7 @@ def master_run(seconds: float, engine: str) -> float:
     """One run of the rig by pendfmu's master; the master (and its FMU instances) is kept
     between calls, as a fit keeps it."""
     if engine not in MASTER:
-        MASTER[engine] = Master.from_system(rig_system(0.4, FMUS_DIR, {}))
+        MASTER[engine] = Master.from_system(rig_system(CART.variable("eta").start, FMUS_DIR, {}))
     times = np.arange(int(round(seconds / STEP)) + 1) * STEP
     frame = MASTER[engine].run(times, ["Pendulum.phi"], {"CurrentLoop.I_c": ExternalInput([0.0], [COMMAND])},
                                engine=engine)
@@ -382,7 +383,8 @@ def dask_scaling(stage: str = "pendulum") -> None:
     except ImportError:
         print("dask: not installed (pip install 'pendfmu[distributed]')")
         return
-    from pendfmu.fitting.stages import STAGES, make_experiment, rig_defaults, stage_free_parameters
+    from pendfmu.components import rig_defaults
+    from pendfmu.fitting.stages import STAGES, make_experiment, stage_free_parameters
     from pendfmu.fitting.optimizer import GlobalOptions, global_search
     from pendfmu.recording import read_recording
     from pendfmu.fitting.residuals import Residuals

@@ -9,7 +9,7 @@ import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
-from pendfmu.components import COMPONENTS
+from pendfmu.components import COMPONENTS, parameter_table
 from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
 
@@ -21,14 +21,6 @@ def _signal_names() -> tuple[str, ...]:
         for var in component.variables:
             if var.causality in ("input", "output"):
                 names[var.name] = None
-    return tuple(names)
-
-
-def _parameter_names() -> tuple[str, ...]:
-    """Parameters of all components, each once (m_p and l are shared by two)."""
-    names: dict[str, None] = {}
-    for component in COMPONENTS.values():
-        names.update(dict.fromkeys(component.parameters))
     return tuple(names)
 
 
@@ -49,8 +41,8 @@ SIGNAL_NAMES: tuple[str, ...] = _signal_names()
 """Valid column names of a recording: the components' inputs and outputs."""
 
 
-PARAMETER_NAMES: tuple[str, ...] = _parameter_names()
-"""Valid keys of the sidecar's ``parameters``."""
+PARAMETER_NAMES: tuple[str, ...] = tuple(parameter_table())
+"""Valid keys of the sidecar's ``parameters``: every parameter once (m_p and l are shared by two)."""
 
 
 INITIAL_NAMES: tuple[str, ...] = _initial_names()
