@@ -108,8 +108,8 @@ def c_limit(seconds: float, library: ctypes.CDLL) -> float:
 def build_limit(directory: Path) -> ctypes.CDLL:
     source = Path(__file__).with_name("bench_limit.c")
     library = directory / "bench_limit.so"
-    subprocess.run(["gcc", *[f for f in CFLAGS if f != "-fvisibility=hidden"], "-shared", "-I", str(FMI_HEADERS),
-                    str(source), "-o", str(library)], check=True)
+    subprocess.run(["gcc", *[f for f in CFLAGS if f != "-fvisibility=hidden"], "-shared", "-I", str(FMUS_DIR / "runner"),
+                    "-I", str(FMI_HEADERS), str(source), "-o", str(library)], check=True)
     from pendfmu.simulator.native import Unit
 
     lib = ctypes.CDLL(str(library))

@@ -268,7 +268,7 @@ class Master(CoupledSteps):
         return values, slopes
 
     def _run_native(self, fmus, times, outputs, external, labels) -> pd.DataFrame:
-        from pendfmu.simulator.native import run_system
+        from pendfmu.simulator.native import MAX_PORTS, Failure, run_system
 
         names = list(self.types)
         index = {name: k for k, name in enumerate(names)}
@@ -288,16 +288,17 @@ class Master(CoupledSteps):
                                       record, [(index[n], fmus[n].vr[v]) for n, v in outputs], self.loop_tolerance,
                                       self.max_iterations)
         self.iterations, self.jumps, self.events = int(system.iterations), int(system.jumps), int(system.events)
-        if system.fail_kind in (2, 4):
+        failure = Failure(system.fail_kind)
+        if failure in (Failure.NOT_CONVERGED, Failure.INCONSISTENT_POINT):
             t = system.fail_time
-            where = (f"at t = {t:.9g} s" if system.fail_kind == 4 else
+            where = (f"at t = {t:.9g} s" if failure is Failure.INCONSISTENT_POINT else
                      f"over [{t:.9g}, {grid[np.searchsorted(grid, t) + 1]:.9g}] s")
             raise CouplingError(f"algebraic loop {self._loop_text()} did not converge {where} "
                                 f"after {self.max_iterations} iterations (last relative change "
                                 f"{system.last_change:.3g})")
-        if system.fail_kind == 5:
-            raise ValueError("the native engine takes at most 64 inputs per component; use engine='python'")
-        if system.fail_kind:
+        if failure is Failure.TOO_MANY_PORTS:
+            raise ValueError(f"the native engine takes at most {MAX_PORTS} inputs per component; use engine='python'")
+        if failure is not Failure.NONE:
             name = names[system.fail_unit] if system.fail_unit >= 0 else "the system"
             said = "; ".join(fmus[name].messages[-3:]) if name in fmus else "out of memory"
             raise FMUError(f"{name} at t = {system.fail_time:.9g} s: {said}", instance=name, time=system.fail_time,
