@@ -30,12 +30,11 @@ from pathlib import Path
 import numpy as np
 
 from pendfmu.components import CART
-from pendfmu.fmubuild.compiler import CFLAGS, FMI_HEADERS
+from pendfmu.fmubuild.compiler import FMUS_DIR, LIBRARY_SUFFIX, compile_library
 from pendfmu.simulator.component import ComponentFMU
 from pendfmu.simulator.master import ExternalInput, Master
 from pendfmu.simulator.native import unit_of
 from pendfmu.ssp import rig_system
-from pendfmu.fmubuild.compiler import FMUS_DIR
 
 STEP = 2e-4
 COMMAND = 1.5
@@ -107,9 +106,8 @@ def c_limit(seconds: float, library: ctypes.CDLL) -> float:
 
 def build_limit(directory: Path) -> ctypes.CDLL:
     source = Path(__file__).with_name("bench_limit.c")
-    library = directory / "bench_limit.so"
-    subprocess.run(["gcc", *[f for f in CFLAGS if f != "-fvisibility=hidden"], "-shared", "-I", str(FMUS_DIR / "runner"),
-                    "-I", str(FMI_HEADERS), str(source), "-o", str(library)], check=True)
+    library = directory / f"bench_limit{LIBRARY_SUFFIX}"
+    compile_library([source], library, [FMUS_DIR / "runner"])
     from pendfmu.simulator.native import Unit
 
     lib = ctypes.CDLL(str(library))

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.fmubuild.compiler import CFLAGS, FMI_HEADERS, FMUS_DIR, BuildError
+from pendfmu.fmubuild.compiler import CFLAGS, FMUS_DIR, LIBRARY_SUFFIX, compile_library
 
 SOURCE = FMUS_DIR / "runner" / "runner.c"
 HEADERS = [FMUS_DIR / "runner" / "runner.h", FMUS_DIR / "runner" / "tear.h"]  # included by runner.c
@@ -85,23 +85,17 @@ class System(ctypes.Structure):
 def _library_path() -> Path:
     text = SOURCE.read_bytes() + b"".join(header.read_bytes() for header in HEADERS)
     digest = hashlib.sha256(text + " ".join(CFLAGS).encode()).hexdigest()[:16]
-    return BUILD_DIR / f"runner-{digest}.so"
+    return BUILD_DIR / f"runner-{digest}{LIBRARY_SUFFIX}"
 
 
 @lru_cache(maxsize=1)
 def library() -> ctypes.CDLL:
     """The runner library, compiled first if missing or stale."""
-    import subprocess
-
     path = _library_path()
     if not path.exists():
         BUILD_DIR.mkdir(parents=True, exist_ok=True)
         partial = path.with_name(f".{path.name}.{os.getpid()}")
-        command = [os.environ.get("CC", "gcc"), *CFLAGS, "-shared", "-I", str(FMI_HEADERS), str(SOURCE),
-                   "-o", str(partial), "-lm"]
-        done = subprocess.run(command, capture_output=True, text=True)
-        if done.returncode != 0:
-            raise BuildError(f"compiling {SOURCE} failed:\n{done.stderr}")
+        compile_library([SOURCE], partial)  # runner.c finds its headers beside it
         os.replace(partial, path)
     lib = ctypes.CDLL(str(path))
     lib.pendfmu_run_single.restype = ctypes.c_long
