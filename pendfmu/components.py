@@ -13,7 +13,7 @@ Boolean, numbered consecutively, so every variable of an FMU has a distinct refe
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 # The internal fixed step of the Co-Simulation integrator: every component has it.
 SOLVER_STEP = 1e-4
@@ -59,7 +59,6 @@ class Component:
     description: str
     variables: tuple[Variable, ...]
     event_indicators: int
-    c_source: str = field(default="")
 
     def __post_init__(self) -> None:
         names = [v.name for v in self.variables]

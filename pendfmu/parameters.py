@@ -76,15 +76,6 @@ def write_parameters(values: Mapping[str, float], path: str | Path, **extra: obj
     Path(path).write_text(json.dumps(document, indent=2) + "\n")
 
 
-def per_component(values: Mapping[str, float], components: Mapping[str, str] | None = None) -> dict[str, dict[str, float]]:
-    """Split rig parameters into the values of each component instance.
-
-    `components` maps instance names to component types (default: one instance of each)."""
-    components = components or {name: name for name in COMPONENTS}
-    return {instance: {name: value for name, value in values.items() if name in COMPONENTS[kind].parameters}
-            for instance, kind in components.items()}
-
-
 def with_initial_states(values: Mapping[str, float], initial: Mapping[str, float], where: str = "") -> dict[str, float]:
     """Override initial-state parameters (x0, v0, phi0, w0, I0) by a sidecar's "initial"."""
     result = dict(values)

@@ -209,7 +209,7 @@ class Master(CoupledSteps):
         signals = {(c.source, c.output): 0.0 for c in self.connections}
         t = float(times[0])
         self._set_inputs(fmus, external, signals, signals, t, 0.0)
-        self._solve_point(fmus, signals, external, t)
+        self._solve_point(fmus, signals, t)
         grid, samples = self._grid(times)
         record = np.empty((len(times), len(outputs)))
         record[0] = [self._get(fmus[n], v) for n, v in outputs]
@@ -337,7 +337,7 @@ class Master(CoupledSteps):
                 refs = [fmu.vr[n] for n in names]
                 fmu._call(fmu.slave.setRealInputDerivatives, refs, [1] * len(refs), slopes)
 
-    def _solve_point(self, fmus, signals, external, t, links=None) -> None:
+    def _solve_point(self, fmus, signals, t, links=None) -> None:
         """Make connected signals (`links`, default all) consistent at one instant: the
         start, and the end of a coupled step accepted at a jump (_settle)."""
         for _ in range(self.max_iterations):
