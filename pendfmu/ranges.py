@@ -7,9 +7,8 @@ a user's model (simulator/model.py). The FMUs check the same ranges in C when a 
 is set (fmus/framework, ranges generated from the table) and word their refusal the same
 way: ``m_c = -1 is outside its physical range (0, inf)``.
 
-A variable here is anything with ``low``, ``high`` (None: unbounded), ``low_open`` (the
-low end excluded: a mass of 0 is not a mass) and ``unit``: a row of the component table
-(components.Variable) or what a model description declares (simulator.model.Variable).
+A variable here is a row of the component table (components.Variable) or what a model
+description declares (simulator.model.Variable): see Ranged.
 """
 
 from __future__ import annotations
@@ -20,10 +19,20 @@ from typing import Protocol
 
 
 class Ranged(Protocol):
-    low: float | None
-    high: float | None
-    low_open: bool
-    unit: str
+    """What a check reads of a variable: its ends (None: unbounded), whether the low end is
+    excluded (a mass of 0 is not a mass) and its unit."""
+
+    @property
+    def low(self) -> float | None: ...
+
+    @property
+    def high(self) -> float | None: ...
+
+    @property
+    def low_open(self) -> bool: ...
+
+    @property
+    def unit(self) -> str: ...
 
 
 def admits(variable: Ranged, value: float) -> bool:

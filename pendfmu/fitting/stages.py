@@ -23,9 +23,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from pendfmu.fitting.experiment import Experiment, Setup, prepare
 from pendfmu import components
 from pendfmu.components import COMPONENTS
+from pendfmu.fitting.experiment import Experiment, Setup, prepare
 from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.parameters import INITIAL_STATE_PARAMETERS, ParameterFileError, check_parameters, with_initial_states
 from pendfmu.recording import Recording, RecordingError
