@@ -13,10 +13,15 @@ Boolean, numbered consecutively, so every variable of an FMU has a distinct refe
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 # The internal fixed step of the Co-Simulation integrator: every component has it.
 SOLVER_STEP = 1e-4
+
+# A lead screw with eta <= 0.5 is self-locking: the pendulum cannot push the cart back
+# (MODEL.md: A(eta) = max(0, (2 eta - 1) / eta) is zero there), so a rig needs the
+# pendulum's state fed back to the cart only above it.
+SELF_LOCKING_ETA = 0.5
 
 
 @dataclass(frozen=True)
@@ -24,8 +29,8 @@ class Variable:
     """One FMI scalar variable.
 
     ``low``/``high`` bound a parameter's physical range; the FMU rejects values outside
-    with fmi2Error. ``low_open`` makes the lower bound exclusive (a mass of 0 is not a
-    mass). ``state`` marks a continuous state; ``derivative_of`` names the state this
+    with fmi2Error, and pendfmu.ranges checks them in Python. ``low_open`` makes the lower
+    bound exclusive (a mass of 0 is not a mass). ``state`` marks a continuous state; ``derivative_of`` names the state this
     variable is the time derivative of. ``depends_on`` lists, for outputs and
     derivatives, the states and inputs they depend on directly (FMI ModelStructure);
     ``None`` means "not declared" (depends on everything).
@@ -45,12 +50,6 @@ class Variable:
     derivative_of: str | None = None
     depends_on: tuple[str, ...] | None = None
 
-    def allowed_range(self) -> str:
-        """Human-readable allowed range, as used in error messages."""
-        lo = "-inf" if self.low is None else repr(self.low)
-        hi = "inf" if self.high is None else repr(self.high)
-        return f"{'(' if self.low_open or self.low is None else '['}{lo}, {hi}{')' if self.high is None else ']'}"
-
 
 @dataclass(frozen=True)
 class Component:
@@ -60,7 +59,6 @@ class Component:
     description: str
     variables: tuple[Variable, ...]
     event_indicators: int
-    c_source: str = field(default="")
 
     def __post_init__(self) -> None:
         names = [v.name for v in self.variables]
@@ -162,10 +160,10 @@ CART = Component(
         _solver_step(),
         Variable("I", "input", "continuous", 0.0, "A", "Motor current"),
         Variable("phi", "input", "continuous", math.pi, "rad",
-                 "Pendulum angle from the upward vertical (used when eta > 0.5)"),
-        Variable("w", "input", "continuous", 0.0, "rad/s", "Pendulum angular speed (used when eta > 0.5)"),
+                 f"Pendulum angle from the upward vertical (used when eta > {SELF_LOCKING_ETA})"),
+        Variable("w", "input", "continuous", 0.0, "rad/s", f"Pendulum angular speed (used when eta > {SELF_LOCKING_ETA})"),
         Variable("alpha", "input", "continuous", 0.0, "rad/s2",
-                 "Pendulum angular acceleration (used when eta > 0.5)"),
+                 f"Pendulum angular acceleration (used when eta > {SELF_LOCKING_ETA})"),
         Variable("x", "output", "continuous", None, "m", "Cart position", state=True, depends_on=("x",)),
         Variable("v", "output", "continuous", None, "m/s", "Cart speed", state=True, derivative_of="x",
                  depends_on=("v",)),
@@ -213,3 +211,20 @@ PENDULUM = Component(
 )
 
 COMPONENTS: dict[str, Component] = {c.name: c for c in (CURRENT_LOOP, CART, PENDULUM)}
+
+
+def parameter_table() -> dict[str, Variable]:
+    """Every parameter of the rig by name, with its table row. A name that several
+    components have (m_p and l) is one physical quantity: it appears once, with the first
+    component's row."""
+    rows: dict[str, Variable] = {}
+    for component in COMPONENTS.values():
+        for name, variable in component.parameters.items():
+            rows.setdefault(name, variable)
+    return rows
+
+
+def rig_defaults() -> dict[str, float]:
+    """MODEL.md's reference rig: every rig parameter at its table default. solver_step is
+    left out: it is a setting of each FMU's integrator, not a property of the rig."""
+    return {name: float(variable.start) for name, variable in parameter_table().items() if name != "solver_step"}

@@ -14,8 +14,9 @@ import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from pendfmu.components import COMPONENTS, Variable
+from pendfmu.components import COMPONENTS, parameter_table
 from pendfmu.errors import BadInput
+from pendfmu.ranges import outside
 
 # Initial states set through the sidecar's "initial" block (signal name -> parameter).
 INITIAL_STATE_PARAMETERS = {"x": "x0", "v": "v0", "phi": "phi0", "w": "w0", "I": "I0", "I_mean": "I0"}
@@ -25,15 +26,6 @@ class ParameterFileError(BadInput):
     """Bad parameter input: reported to the user in one line (exit code 2)."""
 
 
-def known_parameters() -> dict[str, Variable]:
-    """Every parameter name of the rig with its table entry (the first component's)."""
-    known: dict[str, Variable] = {}
-    for component in COMPONENTS.values():
-        for name, variable in component.parameters.items():
-            known.setdefault(name, variable)
-    return known
-
-
 def parameter_owners(name: str) -> list[str]:
     return [c.name for c in COMPONENTS.values() if name in c.parameters]
 
@@ -41,7 +33,7 @@ def parameter_owners(name: str) -> list[str]:
 def check_value(name: str, value: object, where: str = "") -> float:
     """The value as a float, or a ParameterFileError naming the parameter and its range."""
     prefix = f"{where}: " if where else ""
-    known = known_parameters()
+    known = parameter_table()
     if name not in known:
         raise ParameterFileError(f"{prefix}unknown parameter {name!r}; valid names: {', '.join(sorted(known))}")
     if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -51,18 +43,10 @@ def check_value(name: str, value: object, where: str = "") -> float:
         raise ParameterFileError(f"{prefix}parameter {name} = {value} is not finite")
     # A shared name is valid when one of its components takes it: m_p = 0 is a cart with
     # the pendulum removed, although a Pendulum cannot have zero mass (it then must not run).
-    owners = [COMPONENTS[c].parameters[name] for c in parameter_owners(name)]
-    if not any(in_range(variable, value) for variable in owners):
-        ranges = " or ".join(sorted({v.allowed_range() for v in owners}))
-        raise ParameterFileError(f"{prefix}parameter {name} = {value:g} is outside its physical range "
-                                 f"{ranges} [{owners[0].unit}]")
+    problem = outside(name, value, [COMPONENTS[c].parameters[name] for c in parameter_owners(name)])
+    if problem:
+        raise ParameterFileError(f"{prefix}parameter {problem}")
     return value
-
-
-def in_range(variable: Variable, value: float) -> bool:
-    if variable.low is not None and (value < variable.low or (variable.low_open and value == variable.low)):
-        return False
-    return variable.high is None or value <= variable.high
 
 
 def check_parameters(values: Mapping[str, object], where: str = "") -> dict[str, float]:
@@ -90,15 +74,6 @@ def read_parameters(path: str | Path, check: Callable[[Mapping[str, object], str
 def write_parameters(values: Mapping[str, float], path: str | Path, **extra: object) -> None:
     document = {"parameters": dict(values), **extra}
     Path(path).write_text(json.dumps(document, indent=2) + "\n")
-
-
-def per_component(values: Mapping[str, float], components: Mapping[str, str] | None = None) -> dict[str, dict[str, float]]:
-    """Split rig parameters into the values of each component instance.
-
-    `components` maps instance names to component types (default: one instance of each)."""
-    components = components or {name: name for name in COMPONENTS}
-    return {instance: {name: value for name, value in values.items() if name in COMPONENTS[kind].parameters}
-            for instance, kind in components.items()}
 
 
 def with_initial_states(values: Mapping[str, float], initial: Mapping[str, float], where: str = "") -> dict[str, float]:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.components import COMPONENTS
+from pendfmu.components import CART, COMPONENTS, SELF_LOCKING_ETA, rig_defaults
 from pendfmu.parameters import write_parameters
 from pendfmu.recording import Recording, SignalInfo, quantize, write_recording
 from pendfmu.simulator.component import ComponentFMU
@@ -33,7 +33,9 @@ ENCODER_COUNTS = 1024
 ADC_RANGE = 10.0  # +-10 A
 ADC_BITS = 12
 ADC_NOISE = 4e-3  # A, standard deviation
-RIPPLE = {"a_h": 0.03, "f_h": 2000.0, "phase_h": 0.5}  # the PWM ripple of the virtual converter
+# The PWM ripple of the virtual converter: the truth differs here from the FMU's default
+# (no ripple) on purpose, so that the current stage has a ripple to find.
+RIPPLE = {"a_h": 0.03, "f_h": 2000.0, "phase_h": 0.5}
 # Communication steps per sample when the rig is a co-simulation: the truth must not carry
 # the coupling's own error (the current, linearly interpolated between 0.2 ms samples,
 # moved the cart by up to 0.6 encoder steps against an exact event-driven simulator).
@@ -41,13 +43,8 @@ TRUTH_SUBSTEPS = 10
 
 
 def reference_truth() -> dict[str, float]:
-    """MODEL.md's reference rig (the FMU defaults) plus the virtual converter's ripple."""
-    truth = {}
-    for component in COMPONENTS.values():
-        for name, variable in component.parameters.items():
-            if name != "solver_step":
-                truth.setdefault(name, float(variable.start))
-    return {**truth, **RIPPLE}
+    """MODEL.md's reference rig (the table's defaults) with the virtual converter's RIPPLE."""
+    return {**rig_defaults(), **RIPPLE}
 
 
 def steps(*levels: tuple[float, float]) -> Callable[[float], float]:
@@ -157,7 +154,7 @@ def simulate_truth(experiment: Experiment, truth: Mapping[str, float]) -> dict[s
     if experiment.kind == "rig":
         components["Pendulum"] = "Pendulum"
         connections.append(Connection("Cart", "a", "Pendulum", "a"))
-        if values.get("eta", 0.4) > 0.5:
+        if values.get("eta", CART.variable("eta").start) > SELF_LOCKING_ETA:
             connections += [Connection("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha")]
         outputs += ["Pendulum.phi", "Pendulum.w"]
     master = Master(components, connections, {name: _of(name, values) for name in components},

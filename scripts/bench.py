@@ -29,12 +29,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.fmubuild.compiler import CFLAGS, FMI_HEADERS
+from pendfmu.components import CART
+from pendfmu.fmubuild.compiler import FMUS_DIR, LIBRARY_SUFFIX, compile_library
 from pendfmu.simulator.component import ComponentFMU
 from pendfmu.simulator.master import ExternalInput, Master
 from pendfmu.simulator.native import unit_of
 from pendfmu.ssp import rig_system
-from pendfmu.fmubuild.compiler import FMUS_DIR
 
 STEP = 2e-4
 COMMAND = 1.5
@@ -80,7 +80,7 @@ def master_run(seconds: float, engine: str) -> float:
     """One run of the rig by pendfmu's master; the master (and its FMU instances) is kept
     between calls, as a fit keeps it."""
     if engine not in MASTER:
-        MASTER[engine] = Master.from_system(rig_system(0.4, FMUS_DIR, {}))
+        MASTER[engine] = Master.from_system(rig_system(CART.variable("eta").start, FMUS_DIR, {}))
     times = np.arange(int(round(seconds / STEP)) + 1) * STEP
     frame = MASTER[engine].run(times, ["Pendulum.phi"], {"CurrentLoop.I_c": ExternalInput([0.0], [COMMAND])},
                                engine=engine)
@@ -106,9 +106,8 @@ def c_limit(seconds: float, library: ctypes.CDLL) -> float:
 
 def build_limit(directory: Path) -> ctypes.CDLL:
     source = Path(__file__).with_name("bench_limit.c")
-    library = directory / "bench_limit.so"
-    subprocess.run(["gcc", *[f for f in CFLAGS if f != "-fvisibility=hidden"], "-shared", "-I", str(FMI_HEADERS),
-                    str(source), "-o", str(library)], check=True)
+    library = directory / f"bench_limit{LIBRARY_SUFFIX}"
+    compile_library([source], library, [FMUS_DIR / "runner"])
     from pendfmu.simulator.native import Unit
 
     lib = ctypes.CDLL(str(library))
@@ -382,7 +381,8 @@ def dask_scaling(stage: str = "pendulum") -> None:
     except ImportError:
         print("dask: not installed (pip install 'pendfmu[distributed]')")
         return
-    from pendfmu.fitting.stages import STAGES, make_experiment, rig_defaults, stage_free_parameters
+    from pendfmu.components import rig_defaults
+    from pendfmu.fitting.stages import STAGES, make_experiment, stage_free_parameters
     from pendfmu.fitting.optimizer import GlobalOptions, global_search
     from pendfmu.recording import read_recording
     from pendfmu.fitting.residuals import Residuals

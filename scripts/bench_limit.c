@@ -1,19 +1,10 @@
 /* The limit for scripts/bench.py: the rig's FMUs stepped in the plainest possible C loop
  * (inputs held, outputs copied along the connections, phi recorded at every point as the
  * other loops of the benchmark do). Built by the benchmark with the FMUs' toolchain; not part of pendfmu. */
-#include <stddef.h>
-
-#include "fmi2Functions.h"
-
-typedef struct {
-    fmi2Component component;
-    fmi2SetRealTYPE *set_real;
-    fmi2GetRealTYPE *get_real;
-    fmi2DoStepTYPE *do_step;
-    void *set_input_derivatives; /* unused here; keeps the layout of pendfmu's native Unit */
-} Unit;
+#include "runner.h" /* Unit: the C view of an instance that pendfmu's native.unit_of makes */
 
 /* units[0] -> units[1] -> units[2]: CurrentLoop.I_mean -> Cart.I, Cart.a -> Pendulum.a */
+__attribute__((visibility("default")))
 int bench_limit(const Unit *units, const fmi2ValueReference *vr, size_t n_steps, double h, double command,
                 double *recorded) {
     /* vr: CurrentLoop.I_c, CurrentLoop.I_mean, Cart.I, Cart.a, Pendulum.a, Pendulum.phi */

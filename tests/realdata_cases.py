@@ -24,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.parameters import known_parameters, write_parameters
+from pendfmu.components import parameter_table
+from pendfmu.parameters import write_parameters
 from pendfmu.recording import Recording, quantize
 from pendfmu.recording.writer import write_recording
 
@@ -241,7 +242,7 @@ def set_agreement(runs: Sequence[Run], tolerance: float = SET_TOLERANCE) -> dict
 def interval_problems(document: dict) -> list[str]:
     """Intervals outside their parameter's physical range (MODEL.md's table: eta in
     (0, 1], frictions and masses >= 0), or not containing their own value."""
-    known = known_parameters()
+    known = parameter_table()
     problems = []
     for label, (value, ci95, method) in estimates(document).items():
         if ci95 is None:

@@ -189,7 +189,7 @@ def test_m_p_zero_exports_the_cart_and_leaves_out_the_pendulum(tmp_path):
 
 
 def test_a_component_asked_for_refuses_a_value_outside_its_range(tmp_path):
-    with pytest.raises(ParameterFileError, match=r"Pendulum cannot take m_p = 0\.0: outside its range \(0\.0, inf\)"):
+    with pytest.raises(ParameterFileError, match=r"Pendulum\.m_p = 0 is outside its physical range \(0\.0, inf\) \[kg\]"):
         export_all({"m_p": 0.0}, tmp_path, components=["Cart", "Pendulum"])
     assert not list(tmp_path.iterdir())  # checked before anything is written
 
@@ -371,7 +371,7 @@ def test_cli_refused_shared_value_is_exit_2_naming_component_parameter_range(tmp
     params = write_params(tmp_path / "P.json", {"m_p": 0.0})
     assert main(["export", "--params", str(params), "--out", str(tmp_path / "o"), "--component", "Pendulum"]) == 2
     err = capsys.readouterr().err.strip()
-    assert "Pendulum cannot take m_p = 0.0: outside its range (0.0, inf) [kg]" in err and len(err.splitlines()) == 1
+    assert "Pendulum.m_p = 0 is outside its physical range (0.0, inf) [kg]" in err and len(err.splitlines()) == 1
 
 
 def test_cli_out_that_is_a_file_is_exit_2(tmp_path, capsys):

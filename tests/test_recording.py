@@ -274,7 +274,7 @@ def test_sidecar_unknown_parameter_lists_valid_ones(tmp_path):
 
 def test_sidecar_parameter_out_of_range(tmp_path):
     path = write_csv(tmp_path, GOOD, sidecar={"parameters": {"eta": 1.5}})
-    assert "parameters.eta: 1.5 is outside the allowed range ((0.0, 1.0] in Cart)" in error_of(path)
+    assert "parameters.eta: eta = 1.5 is outside its physical range (0.0, 1.0] [1]" in error_of(path)
 
 
 def test_sidecar_m_p_zero_is_accepted_for_the_cart(tmp_path):
@@ -340,7 +340,7 @@ def test_constructor_checks_like_the_reader():
         Recording(path=None, time=[0.0, 1.0], signals={"x": [0.0, 1.0, 2.0]})
     with pytest.raises(RecordingError, match=r"time is not strictly increasing at sample 3"):
         Recording(path="a.mat", time=[0.0, 1.0, 0.5], signals={"x": [0.0, 1.0, 2.0]})
-    with pytest.raises(RecordingError, match=r"parameters\['T_i'\]: -1.0 is outside"):
+    with pytest.raises(RecordingError, match=r"parameters\['T_i'\]: T_i = -1 is outside its physical range \(0\.0, inf\) \[s\]"):
         Recording(path=None, time=[0.0], signals={"x": [0.0]}, parameters={"T_i": -1})
 
 

@@ -8,9 +8,10 @@ import math
 import numpy as np
 import pytest
 
+from pendfmu.components import COMPONENTS, rig_defaults
 from pendfmu.recording import read_recording
-from pendfmu.virtual_rig import (ADC_BITS, ADC_RANGE, Experiment, reference_truth, standard_experiments, steps,
-                                 write_experiments)
+from pendfmu.virtual_rig import (ADC_BITS, ADC_RANGE, RIPPLE, Experiment, reference_truth, standard_experiments,
+                                 steps, write_experiments)
 
 SHORT = [
     Experiment("current", "current", 0.004, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0))),
@@ -66,6 +67,21 @@ def test_sidecar_states_fixed_parameters_and_known_initial_states(recorded):
     # Known initial angle is the encoder's reading of the release angle.
     assert rig.initial["phi"] == pytest.approx(math.pi + 0.1, abs=math.pi / 1024)
     assert multiples_of(np.array([rig.initial["phi"]]), 2 * math.pi / 1024)
+
+
+def test_the_truth_is_the_tables_defaults_but_for_the_converters_ripple():
+    truth = reference_truth()
+    assert {name: value for name, value in truth.items() if name not in RIPPLE} == \
+        {name: value for name, value in rig_defaults().items() if name not in RIPPLE}
+    assert set(truth) == set(rig_defaults()) and all(truth[name] != rig_defaults()[name] for name in RIPPLE)
+
+
+def test_a_shared_parameter_has_one_default_unit_and_range():
+    """rig_defaults and the checks take a shared name's (m_p, l) first table row: the rows
+    must agree on what the first one says, but for the Cart's m_p = 0 (pendulum removed)."""
+    for name in ("m_p", "l"):
+        rows = [c.parameters[name] for c in COMPONENTS.values() if name in c.parameters]
+        assert len(rows) == 2 and len({(row.start, row.unit, row.high) for row in rows}) == 1, name
 
 
 def test_truth_is_written_beside(recorded):

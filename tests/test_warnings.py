@@ -17,7 +17,8 @@ import pandas as pd
 import pytest
 
 from pendfmu.cli import main
-from pendfmu.fitting.stages import make_experiment, rig_defaults
+from pendfmu.components import rig_defaults
+from pendfmu.fitting.stages import make_experiment
 from pendfmu.fitting.plausibility import check_experiment
 from pendfmu.recording import read_recording
 from pendfmu.fitting.result import Estimate, FitResult, interval

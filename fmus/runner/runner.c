@@ -6,17 +6,7 @@
  * parameterized by it) and does exactly what the Python loop does, in the same order, so
  * the results are bit-identical; only the per-step overhead of Python and ctypes is gone.
  */
-#include <stddef.h>
-
-#include "fmi2Functions.h"
-
-typedef struct {
-    fmi2Component component;
-    fmi2SetRealTYPE *set_real;
-    fmi2GetRealTYPE *get_real;
-    fmi2DoStepTYPE *do_step;
-    fmi2SetRealInputDerivativesTYPE *set_input_derivatives;
-} Unit;
+#include "runner.h"
 
 /* Run through n_points communication points. inputs is n_points x n_inputs (row-major),
  * outputs n_points x n_outputs; slopes (or NULL: inputs held) gives each input's first
@@ -27,8 +17,8 @@ long pendfmu_run_single(const Unit *unit, size_t n_points, const double *times,
                         size_t n_inputs, const fmi2ValueReference *input_vrs, const double *inputs,
                         const double *slopes, size_t n_outputs, const fmi2ValueReference *output_vrs,
                         double *outputs) {
-    fmi2Integer first_order[64];
-    if (n_inputs > 64) return 0;
+    fmi2Integer first_order[MAX_PORTS];
+    if (n_inputs > MAX_PORTS) return 0;
     for (size_t j = 0; j < n_inputs; j++) first_order[j] = 1;
     for (size_t k = 0; k < n_points; k++) {
         if (n_inputs && unit->set_real(unit->component, input_vrs, n_inputs, inputs + k * n_inputs) > fmi2Warning)
@@ -61,61 +51,7 @@ long pendfmu_run_single(const Unit *unit, size_t n_points, const double *times,
 
 #include "tear.h"
 
-typedef struct {
-    Unit f;
-    fmi2GetFMUstateTYPE *get_state;
-    fmi2SetFMUstateTYPE *set_state;
-    fmi2FreeFMUstateTYPE *free_state;
-} SystemUnit;
-
-typedef struct {
-    int source, target;
-    fmi2ValueReference source_vr, target_vr;
-} Link;
-
-typedef struct {
-    int unit;
-    fmi2ValueReference vr;
-    const double *values; /* at each communication point */
-    const double *slopes; /* over the step that starts there */
-} Drive;
-
-typedef struct {
-    size_t n_units;
-    SystemUnit *units;
-    size_t n_links;
-    const Link *links;
-    size_t n_drives;
-    const Drive *drives;
-    size_t n_groups;
-    const int *group_start; /* n_groups + 1 offsets into group_members */
-    const int *group_members;
-    const int *tear_unit; /* per group: the unit whose output tears its loop, or -1 (none) */
-    const fmi2ValueReference *tear_vr;
-    const long *event_vr; /* per unit: value reference of its t_mode (time of its last mode change), or -1 */
-    double tolerance;
-    int max_iterations;
-    size_t n_points;
-    const double *times;
-    const unsigned char *record; /* 1 where outputs are recorded */
-    size_t n_outputs;
-    const int *output_unit;
-    const fmi2ValueReference *output_vr;
-    double *outputs;
-    /* results */
-    long iterations;
-    long jumps;  /* pieces of coupled steps whose loop map jumped (tear.h) */
-    long events; /* events inside coupled steps crossed by held pieces */
-    double fail_time;
-    int fail_kind; /* 0 none, 1 fmi2 call failed, 2 a coupled step did not converge, 3 out of memory,
-                      4 the connected signals are not consistent at the start, 5 a unit has more
-                      than MAX_PORTS inputs */
-    int fail_unit;
-    double last_change;
-} System;
-
 #define MAX_SIGNALS 256
-#define MAX_PORTS 64
 
 /* Where each unit's inputs come from, in the order set_inputs sets them (drives, then
  * links: the Python master's order), and which links each group publishes. Worked out
@@ -213,7 +149,7 @@ static int make_plan(const System *s, Plan *plan) {
     return 1;
 }
 
-static int fail(System *s, int kind, int unit, double t) {
+static int fail(System *s, enum FailKind kind, int unit, double t) {
     s->fail_kind = kind;
     s->fail_unit = unit;
     s->fail_time = t;
@@ -222,7 +158,7 @@ static int fail(System *s, int kind, int unit, double t) {
 
 static int do_step(System *s, int unit, double t, double h) {
     const Unit *u = &s->units[unit].f;
-    if (u->do_step(u->component, t, h, fmi2True) > fmi2Warning) return fail(s, 1, unit, t);
+    if (u->do_step(u->component, t, h, fmi2True) > fmi2Warning) return fail(s, FAIL_CALL, unit, t);
     return 1;
 }
 
@@ -230,7 +166,8 @@ static int do_step(System *s, int unit, double t, double h) {
 static int publish(System *s, const Plan *plan, size_t g, double *signal, double t) {
     for (size_t j = plan->publish_start[g]; j < plan->publish_start[g + 1]; j++) {
         const size_t l = plan->published[j];
-        if (!get_one(s, s->links[l].source, s->links[l].source_vr, &signal[l])) return fail(s, 1, s->links[l].source, t);
+        if (!get_one(s, s->links[l].source, s->links[l].source_vr, &signal[l]))
+            return fail(s, FAIL_CALL, s->links[l].source, t);
     }
     return 1;
 }
@@ -248,17 +185,17 @@ static int solve_point(System *s, double *signal, double t, long group) {
             double value;
             const Link *link = &s->links[l];
             if (group >= 0 && !is_internal(s, (size_t)group, l)) continue;
-            if (!get_one(s, link->source, link->source_vr, &value)) return fail(s, 1, link->source, t);
+            if (!get_one(s, link->source, link->source_vr, &value)) return fail(s, FAIL_CALL, link->source, t);
             change = fmax(change, fabs(value - signal[l]) / (1.0 + fabs(value)));
             signal[l] = value;
             const Unit *u = &s->units[link->target].f;
             if (u->set_real(u->component, &link->target_vr, 1, &value) > fmi2Warning)
-                return fail(s, 1, link->target, t);
+                return fail(s, FAIL_CALL, link->target, t);
         }
         s->last_change = change;
         if (change <= s->tolerance) return 1;
     }
-    return fail(s, 4, -1, t);
+    return fail(s, FAIL_INCONSISTENT_POINT, -1, t);
 }
 
 static int is_tear(const System *s, size_t g, size_t l) {
@@ -295,14 +232,14 @@ static int torn_step(System *s, const Plan *plan, size_t g, size_t k, const doub
         if (held)
             for (size_t l = 0; l < s->n_links; l++)
                 if (is_internal(s, g, l)) p->first[l] = p->last[l];
-        if (!set_inputs(s, plan, unit, k, p->first, p->last, length, a - t)) return fail(s, 1, unit, t);
+        if (!set_inputs(s, plan, unit, k, p->first, p->last, length, a - t)) return fail(s, FAIL_CALL, unit, t);
         if (!do_step(s, unit, a, length)) return 0;
         for (size_t l = 0; l < s->n_links; l++)
             if (s->links[l].source == unit && !is_tear(s, g, l) &&
                 !get_one(s, unit, s->links[l].source_vr, &p->last[l]))
-                return fail(s, 1, unit, t);
+                return fail(s, FAIL_CALL, unit, t);
     }
-    if (!get_one(s, s->tear_unit[g], s->tear_vr[g], out)) return fail(s, 1, s->tear_unit[g], t);
+    if (!get_one(s, s->tear_unit[g], s->tear_vr[g], out)) return fail(s, FAIL_CALL, s->tear_unit[g], t);
     return 1;
 }
 
@@ -312,7 +249,7 @@ static int save_states(System *s, size_t g, fmi2FMUstate *saved, int restore, do
         SystemUnit *u = &s->units[unit];
         const fmi2Status status = restore ? u->set_state(u->f.component, saved[unit])
                                           : u->get_state(u->f.component, &saved[unit]);
-        if (status > fmi2Warning) return fail(s, 1, unit, t);
+        if (status > fmi2Warning) return fail(s, FAIL_CALL, unit, t);
     }
     return 1;
 }
@@ -325,7 +262,7 @@ static int event_inside(System *s, size_t g, double a, double b, int *found, dou
         const int unit = s->group_members[m];
         double t_mode;
         if (s->event_vr[unit] < 0) continue;
-        if (!get_one(s, unit, (fmi2ValueReference)s->event_vr[unit], &t_mode)) return fail(s, 1, unit, t);
+        if (!get_one(s, unit, (fmi2ValueReference)s->event_vr[unit], &t_mode)) return fail(s, FAIL_CALL, unit, t);
         if (a < t_mode && t_mode < b && (!*found || t_mode < *earliest)) {
             *found = 1;
             *earliest = t_mode;
@@ -355,7 +292,7 @@ static int solve_piece(System *s, const Plan *plan, size_t g, size_t k, const do
         if (!save_states(s, g, saved, 1, t)) return 0;
     }
     s->last_change = solver->change;
-    if (*outcome == TEAR_EXHAUSTED) return fail(s, 2, -1, t);
+    if (*outcome == TEAR_EXHAUSTED) return fail(s, FAIL_NOT_CONVERGED, -1, t);
     s->jumps += *outcome == TEAR_JUMP;
     *inside = 0;
     if (!held && !event_inside(s, g, a, b, inside, &event, t)) return 0;
@@ -369,7 +306,7 @@ static int tear_step(System *s, const Plan *plan, size_t g, size_t k, double *st
                      TearMemory *memory, fmi2FMUstate *saved, double t, double h) {
     size_t tear_link = 0;
     while (tear_link < s->n_links && !is_tear(s, g, tear_link)) tear_link++;
-    if (tear_link == s->n_links) return fail(s, 1, s->tear_unit[g], t); /* the tear feeds no link: not a tear */
+    if (tear_link == s->n_links) return fail(s, FAIL_CALL, s->tear_unit[g], t); /* the tear feeds no link: not a tear */
     const double end_time = t + h;
     for (size_t l = 0; l < s->n_links; l++) p->at[l] = start[l];
     double a = t, b = end_time, event = 0.0;
@@ -399,7 +336,7 @@ static int tear_step(System *s, const Plan *plan, size_t g, size_t k, double *st
         if (b == end_time) break;
         for (size_t l = 0; l < s->n_links; l++) /* accept the piece [a, b]; the next starts at b */
             if (is_internal(s, g, l) && !get_one(s, s->links[l].source, s->links[l].source_vr, &p->at[l]))
-                return fail(s, 1, s->links[l].source, t);
+                return fail(s, FAIL_CALL, s->links[l].source, t);
         held = has_event && !held && b < event;
         a = b;
         b = held ? fmin(event + EVENT_MARGIN * h, end_time) : end_time;
@@ -428,20 +365,21 @@ static int iterated_step(System *s, const Plan *plan, size_t g, size_t k, double
     for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
         SystemUnit *u = &s->units[s->group_members[m]];
         if (u->get_state(u->f.component, &saved[s->group_members[m]]) > fmi2Warning)
-            return fail(s, 1, s->group_members[m], t);
+            return fail(s, FAIL_CALL, s->group_members[m], t);
     }
     double change = 0.0;
     for (int it = 0; it < s->max_iterations; it++) {
         s->iterations++;
         for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
             if (!set_inputs(s, plan, s->group_members[m], k, start, guess, h, 0.0))
-                return fail(s, 1, s->group_members[m], t);
+                return fail(s, FAIL_CALL, s->group_members[m], t);
         for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++)
             if (!do_step(s, s->group_members[m], t, h)) return 0;
         change = 0.0;
         for (size_t l = 0; l < s->n_links; l++) {
             if (!internal[l]) continue;
-            if (!get_one(s, s->links[l].source, s->links[l].source_vr, &ends[l])) return fail(s, 1, s->links[l].source, t);
+            if (!get_one(s, s->links[l].source, s->links[l].source_vr, &ends[l]))
+                return fail(s, FAIL_CALL, s->links[l].source, t);
             change = fmax(change, fabs(ends[l] - guess[l]) / (1.0 + fabs(ends[l])));
         }
         s->last_change = change;
@@ -458,16 +396,16 @@ static int iterated_step(System *s, const Plan *plan, size_t g, size_t k, double
         for (int m = s->group_start[g]; m < s->group_start[g + 1]; m++) {
             SystemUnit *u = &s->units[s->group_members[m]];
             if (u->set_state(u->f.component, saved[s->group_members[m]]) > fmi2Warning)
-                return fail(s, 1, s->group_members[m], t);
+                return fail(s, FAIL_CALL, s->group_members[m], t);
         }
     }
-    return fail(s, 2, -1, t);
+    return fail(s, FAIL_NOT_CONVERGED, -1, t);
 }
 
 static int record_outputs(System *s, size_t row) {
     for (size_t j = 0; j < s->n_outputs; j++)
         if (!get_one(s, s->output_unit[j], s->output_vr[j], &s->outputs[row * s->n_outputs + j]))
-            return fail(s, 1, s->output_unit[j], 0.0);
+            return fail(s, FAIL_CALL, s->output_unit[j], 0.0);
     return 1;
 }
 
@@ -477,7 +415,7 @@ static int run_system(System *s, const Plan *plan, double *signal, double *start
     size_t row = 0;
     const double t0 = s->times[0];
     for (size_t unit = 0; unit < s->n_units; unit++)
-        if (!set_inputs(s, plan, (int)unit, 0, signal, signal, 0.0, 0.0)) return fail(s, 1, (int)unit, t0);
+        if (!set_inputs(s, plan, (int)unit, 0, signal, signal, 0.0, 0.0)) return fail(s, FAIL_CALL, (int)unit, t0);
     if (!solve_point(s, signal, t0, -1)) return 0;
     if (s->record[0] && !record_outputs(s, row++)) return 0;
     for (size_t k = 0; k + 1 < s->n_points; k++) {
@@ -491,7 +429,7 @@ static int run_system(System *s, const Plan *plan, double *signal, double *start
                     return 0;
             } else {
                 const int unit = s->group_members[s->group_start[g]];
-                if (!set_inputs(s, plan, unit, k, start, signal, h, 0.0)) return fail(s, 1, unit, t);
+                if (!set_inputs(s, plan, unit, k, start, signal, h, 0.0)) return fail(s, FAIL_CALL, unit, t);
                 if (!do_step(s, unit, t, h) || !publish(s, plan, g, signal, t)) return 0;
             }
         }
@@ -505,9 +443,9 @@ int pendfmu_run_system(System *s) {
     s->iterations = 0;
     s->jumps = 0;
     s->events = 0;
-    s->fail_kind = 0;
+    s->fail_kind = FAIL_NONE;
     s->fail_unit = -1;
-    if (s->n_links > MAX_SIGNALS) return fail(s, 3, -1, s->times[0]);
+    if (s->n_links > MAX_SIGNALS) return fail(s, FAIL_NO_MEMORY, -1, s->times[0]);
     double *signal = calloc(7 * s->n_links + 1, sizeof(double));
     unsigned char *has_previous = calloc(s->n_links + 1, 1);
     fmi2FMUstate *saved = calloc(s->n_units, sizeof(fmi2FMUstate));
@@ -517,9 +455,9 @@ int pendfmu_run_system(System *s) {
     int ok = 0;
     if (!(signal && has_previous && saved && memory && plan.ports && plan.published && plan.publish_start &&
           plan.coupled))
-        fail(s, 3, -1, s->times[0]);
+        fail(s, FAIL_NO_MEMORY, -1, s->times[0]);
     else if (!make_plan(s, &plan))
-        fail(s, 5, -1, s->times[0]);
+        fail(s, FAIL_TOO_MANY_PORTS, -1, s->times[0]);
     else {
         Piece piece = {signal + 4 * s->n_links, signal + 5 * s->n_links, signal + 6 * s->n_links};
         ok = run_system(s, &plan, signal, signal + s->n_links, signal + 2 * s->n_links, signal + 3 * s->n_links,

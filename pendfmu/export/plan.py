@@ -20,7 +20,8 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
 from pendfmu.components import COMPONENTS, Component
-from pendfmu.parameters import ParameterFileError, check_parameters, in_range, parameter_owners
+from pendfmu.parameters import ParameterFileError, check_parameters, parameter_owners
+from pendfmu.ranges import outside
 
 
 @dataclass
@@ -51,11 +52,7 @@ class ExportPlan:
 
 def refusal(component: Component, name: str, value: float) -> str | None:
     """Why `component` cannot take `name` = `value` (None when it can)."""
-    variable = component.parameters[name]
-    if in_range(variable, value):
-        return None
-    return (f"{component.name} cannot take {name} = {value!r}: outside its range "
-            f"{variable.allowed_range()} [{variable.unit}]")
+    return outside(f"{component.name}.{name}", value, [component.parameters[name]])
 
 
 def _takers(name: str, value: float) -> str:

@@ -207,9 +207,9 @@ def interval(value: float, sigma: float, log_scale: bool, name: str = "", quanti
 
 def clip_to_range(name: str, bounds: tuple[float, float]) -> tuple[float, float]:
     """An interval cut to the physical range of the parameter `name` (MODEL.md's table)."""
-    from pendfmu.parameters import known_parameters
+    from pendfmu.components import parameter_table
 
-    variable = known_parameters().get(name)
+    variable = parameter_table().get(name)
     low, high = bounds
     if variable is not None:
         if variable.low is not None:

@@ -12,13 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
+from pendfmu.components import rig_defaults
 from pendfmu.fitting.checkpoint import Checkpoint
 from pendfmu.fitting.identification import _recordings, fit
 from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.fitting.plausibility import SuspiciousData, check_experiment
 from pendfmu.fitting.result import FitResult
 from pendfmu.fitting.ripple import fit_current
-from pendfmu.fitting.stages import STAGES, make_experiment, rig_defaults
+from pendfmu.fitting.stages import STAGES, make_experiment
 from pendfmu.fitting.uncertainty import REPLICATES
 from pendfmu.parameters import check_parameters
 from pendfmu.recording import Recording, RecordingError, read_recording

@@ -23,8 +23,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from pendfmu.fitting.experiment import Experiment, Setup, prepare
+from pendfmu import components
 from pendfmu.components import COMPONENTS
+from pendfmu.fitting.experiment import Experiment, Setup, prepare
 from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.parameters import INITIAL_STATE_PARAMETERS, ParameterFileError, check_parameters, with_initial_states
 from pendfmu.recording import Recording, RecordingError
@@ -162,14 +163,9 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
 }
 
 
-def rig_defaults() -> dict[str, float]:
-    """Every rig parameter at its FMU default (the reference rig of MODEL.md)."""
-    values: dict[str, float] = {}
-    for component in COMPONENTS.values():
-        for name, variable in component.parameters.items():
-            if name != "solver_step":
-                values.setdefault(name, float(variable.start))
-    return values
+# A fit starts from the table's defaults (MODEL.md's reference rig), then the given values.
+# The name stays here for identification.py, which imports it from this module.
+rig_defaults = components.rig_defaults
 
 
 SEARCH_DECADE = 10.0  # default search box: the given value divided and multiplied by this

@@ -15,6 +15,7 @@ import subprocess
 import tempfile
 import uuid
 import zipfile
+from collections.abc import Sequence
 from pathlib import Path
 
 import fmpy
@@ -29,6 +30,7 @@ FMI_HEADERS = Path(fmpy.__file__).parent / "c-code"
 CFLAGS = ["-std=c99", "-O3", "-flto", "-fPIC", "-fvisibility=hidden", "-ffp-contract=off",
           "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 PLATFORM = "linux64"
+LIBRARY_SUFFIX = ".so"  # a shared library on PLATFORM
 
 
 class BuildError(RuntimeError):
@@ -72,15 +74,23 @@ def source_files(component: Component, guid: str) -> dict[str, str]:
     return files
 
 
-def compile_sources(source_dir: Path, output: Path, compiler: str | None = None) -> None:
-    """Compile every .c file of a flat sources folder into the shared library `output`."""
+def compile_library(sources: Sequence[str | Path], output: Path, include: Sequence[Path] = (),
+                    compiler: str | None = None) -> None:
+    """Compile C sources into the shared library `output`, headers searched in `include`
+    and then the FMI headers. pendfmu's one compiler command: the FMUs, the native loop
+    and the benchmark's limit are built with the same flags (those the GUIDs and the
+    loop's library name hash) for the same platform."""
     cc = compiler or os.environ.get("CC", "gcc")
-    c_files = sorted(str(p) for p in source_dir.glob("*.c"))
-    command = [cc, *CFLAGS, "-shared", "-I", str(source_dir), "-I", str(FMI_HEADERS), *c_files,
-               "-o", str(output), "-lm"]
+    folders = [*(f for folder in include for f in ("-I", str(folder))), "-I", str(FMI_HEADERS)]
+    command = [cc, *CFLAGS, "-shared", *folders, *(str(s) for s in sources), "-o", str(output), "-lm"]
     result = subprocess.run(command, capture_output=True, text=True)
     if result.returncode != 0:
-        raise BuildError(f"{cc} failed for {source_dir}:\n{result.stderr}")
+        raise BuildError(f"{cc} failed for {', '.join(str(s) for s in sources)}:\n{result.stderr}")
+
+
+def compile_sources(source_dir: Path, output: Path, compiler: str | None = None) -> None:
+    """Compile every .c file of a flat sources folder into the shared library `output`."""
+    compile_library(sorted(str(p) for p in source_dir.glob("*.c")), output, [source_dir], compiler)
 
 
 def build_fmu(component: Component, force: bool = False) -> Path:
@@ -97,12 +107,12 @@ def build_fmu(component: Component, force: bool = False) -> Path:
         sources.mkdir()
         for name, text in files.items():
             (sources / name).write_text(text)
-        library = tmp_dir / f"{component.name}.so"
+        library = tmp_dir / f"{component.name}{LIBRARY_SUFFIX}"
         compile_sources(sources, library)
         partial = target.with_name(f".{target.name}.{os.getpid()}.part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as fmu:
             fmu.writestr("modelDescription.xml", description.model_description(component, guid, names))
-            fmu.write(library, f"binaries/{PLATFORM}/{component.name}.so")
+            fmu.write(library, f"binaries/{PLATFORM}/{library.name}")
             for name in names:
                 fmu.write(sources / name, f"sources/{name}")
             fmu.writestr("sources/buildDescription.xml", description.build_description(component, names))

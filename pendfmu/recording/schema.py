@@ -9,8 +9,9 @@ import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
-from pendfmu.components import COMPONENTS
+from pendfmu.components import COMPONENTS, parameter_table
 from pendfmu.errors import BadInput
+from pendfmu.ranges import outside
 
 
 def _signal_names() -> tuple[str, ...]:
@@ -20,14 +21,6 @@ def _signal_names() -> tuple[str, ...]:
         for var in component.variables:
             if var.causality in ("input", "output"):
                 names[var.name] = None
-    return tuple(names)
-
-
-def _parameter_names() -> tuple[str, ...]:
-    """Parameters of all components, each once (m_p and l are shared by two)."""
-    names: dict[str, None] = {}
-    for component in COMPONENTS.values():
-        names.update(dict.fromkeys(component.parameters))
     return tuple(names)
 
 
@@ -48,8 +41,8 @@ SIGNAL_NAMES: tuple[str, ...] = _signal_names()
 """Valid column names of a recording: the components' inputs and outputs."""
 
 
-PARAMETER_NAMES: tuple[str, ...] = _parameter_names()
-"""Valid keys of the sidecar's ``parameters``."""
+PARAMETER_NAMES: tuple[str, ...] = tuple(parameter_table())
+"""Valid keys of the sidecar's ``parameters``: every parameter once (m_p and l are shared by two)."""
 
 
 INITIAL_NAMES: tuple[str, ...] = _initial_names()
@@ -109,17 +102,7 @@ def _parameter_problem(name: str, value: float) -> str | None:
         return f"unknown parameter{_suggest(name, PARAMETER_NAMES)}; valid: {', '.join(PARAMETER_NAMES)}"
     if not math.isfinite(value):
         return f"must be finite, got {value!r}"
-    ranges = []
-    for component in COMPONENTS.values():
-        var = component.parameters.get(name)
-        if var is None:
-            continue
-        below = var.low is not None and (value < var.low or (var.low_open and value == var.low))
-        above = var.high is not None and value > var.high
-        if not (below or above):
-            return None
-        ranges.append(f"{var.allowed_range()} in {component.name}")
-    return f"{value!r} is outside the allowed range ({'; '.join(ranges)})"
+    return outside(name, value, [c.parameters[name] for c in COMPONENTS.values() if name in c.parameters])
 
 
 def _initial_problem(name: str, value: float) -> str | None:

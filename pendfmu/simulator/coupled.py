@@ -88,7 +88,7 @@ class CoupledSteps:
                     continue
                 self.events += held
                 if outcome == JUMP:
-                    self._settle(fmus, signals, external, internal, b)
+                    self._settle(fmus, signals, internal, b)
                 if b == end_time:
                     break
                 for key in at:  # accept the piece [a, b]; the next starts at b
@@ -178,13 +178,13 @@ class CoupledSteps:
                     earliest = t_mode
         return earliest
 
-    def _settle(self, fmus, signals, external, internal, t) -> None:
+    def _settle(self, fmus, signals, internal, t) -> None:
         """After a piece accepted at a jump of the loop map (tear.py): the consumers were
         stepped with the torn signal's left limit, not with its computed end value, so the
         group's signals at t disagree by the jump. Pass them on around the loop until they
         agree; each FMU makes its mode consistent with its new inputs when its outputs are
         read. The FMUs' own mode logic decides."""
-        self._solve_point(fmus, signals, external, t, internal)
+        self._solve_point(fmus, signals, t, internal)
 
     def _iterated_step(self, fmus, signals, start, external, group, internal, t, h) -> None:
         """A group without a single-signal tear: fixed-point iteration on all its internal

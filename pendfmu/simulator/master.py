@@ -209,7 +209,7 @@ class Master(CoupledSteps):
         signals = {(c.source, c.output): 0.0 for c in self.connections}
         t = float(times[0])
         self._set_inputs(fmus, external, signals, signals, t, 0.0)
-        self._solve_point(fmus, signals, external, t)
+        self._solve_point(fmus, signals, t)
         grid, samples = self._grid(times)
         record = np.empty((len(times), len(outputs)))
         record[0] = [self._get(fmus[n], v) for n, v in outputs]
@@ -268,7 +268,7 @@ class Master(CoupledSteps):
         return values, slopes
 
     def _run_native(self, fmus, times, outputs, external, labels) -> pd.DataFrame:
-        from pendfmu.simulator.native import run_system
+        from pendfmu.simulator.native import MAX_PORTS, Failure, run_system
 
         names = list(self.types)
         index = {name: k for k, name in enumerate(names)}
@@ -288,16 +288,17 @@ class Master(CoupledSteps):
                                       record, [(index[n], fmus[n].vr[v]) for n, v in outputs], self.loop_tolerance,
                                       self.max_iterations)
         self.iterations, self.jumps, self.events = int(system.iterations), int(system.jumps), int(system.events)
-        if system.fail_kind in (2, 4):
+        failure = Failure(system.fail_kind)
+        if failure in (Failure.NOT_CONVERGED, Failure.INCONSISTENT_POINT):
             t = system.fail_time
-            where = (f"at t = {t:.9g} s" if system.fail_kind == 4 else
+            where = (f"at t = {t:.9g} s" if failure is Failure.INCONSISTENT_POINT else
                      f"over [{t:.9g}, {grid[np.searchsorted(grid, t) + 1]:.9g}] s")
             raise CouplingError(f"algebraic loop {self._loop_text()} did not converge {where} "
                                 f"after {self.max_iterations} iterations (last relative change "
                                 f"{system.last_change:.3g})")
-        if system.fail_kind == 5:
-            raise ValueError("the native engine takes at most 64 inputs per component; use engine='python'")
-        if system.fail_kind:
+        if failure is Failure.TOO_MANY_PORTS:
+            raise ValueError(f"the native engine takes at most {MAX_PORTS} inputs per component; use engine='python'")
+        if failure is not Failure.NONE:
             name = names[system.fail_unit] if system.fail_unit >= 0 else "the system"
             said = "; ".join(fmus[name].messages[-3:]) if name in fmus else "out of memory"
             raise FMUError(f"{name} at t = {system.fail_time:.9g} s: {said}", instance=name, time=system.fail_time,
@@ -336,7 +337,7 @@ class Master(CoupledSteps):
                 refs = [fmu.vr[n] for n in names]
                 fmu._call(fmu.slave.setRealInputDerivatives, refs, [1] * len(refs), slopes)
 
-    def _solve_point(self, fmus, signals, external, t, links=None) -> None:
+    def _solve_point(self, fmus, signals, t, links=None) -> None:
         """Make connected signals (`links`, default all) consistent at one instant: the
         start, and the end of a coupled step accepted at a jump (_settle)."""
         for _ in range(self.max_iterations):

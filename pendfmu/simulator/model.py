@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pendfmu.errors import BadInput
+from pendfmu.ranges import outside
 from pendfmu.recording.schema import Vocabulary
 from pendfmu.simulator.component import unpacked_fmu
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
@@ -51,6 +52,7 @@ class Variable:
     low: float | None
     high: float | None
     unit: str
+    low_open = False  # FMI 2 ranges are closed: min <= value <= max (pendfmu.ranges)
 
 
 @dataclass(frozen=True)
@@ -202,11 +204,10 @@ class Model:
             return str(error).split(": ", 1)[1]
         if not math.isfinite(value):
             return f"must be finite, got {value!r}"
-        for port in ports:
-            declared = self.variables[port]
-            if (declared.low is not None and value < declared.low) or (declared.high is not None and value > declared.high):
-                return (f"{value!r} is outside the range {port} declares "
-                        f"[{_bound(declared.low, '-inf')}, {_bound(declared.high, 'inf')}]")
+        for port in ports:  # every port a name sets must take the value
+            problem = outside(str(port), value, [self.variables[port]])
+            if problem:
+                return problem
         return None
 
     def vocabulary(self, columns: Iterable[str] = (), initial: Iterable[str] = ()) -> Vocabulary:
@@ -244,10 +245,6 @@ class _KnownNames:
             return (f"not a state this fit knows; valid: {', '.join(self.names) or 'none'} (map a signal to the "
                     f"parameter of its initial value)")
         return None if math.isfinite(value) else f"must be finite, got {value!r}"
-
-
-def _bound(value: float | None, missing: str) -> str:
-    return missing if value is None else f"{value:g}"
 
 
 def _suggestion(name: str, known: Iterable[str]) -> str:

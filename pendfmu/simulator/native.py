@@ -12,55 +12,40 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import os
+from enum import IntEnum
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
-from pendfmu.fmubuild.compiler import CFLAGS, FMI_HEADERS, FMUS_DIR, BuildError
+from pendfmu.fmubuild.compiler import CFLAGS, FMUS_DIR, LIBRARY_SUFFIX, compile_library
 
 SOURCE = FMUS_DIR / "runner" / "runner.c"
-HEADERS = [FMUS_DIR / "runner" / "tear.h"]  # included by runner.c
+HEADERS = [FMUS_DIR / "runner" / "runner.h", FMUS_DIR / "runner" / "tear.h"]  # included by runner.c
 BUILD_DIR = FMUS_DIR / "build"
+
+# MAX_PORTS, Failure and the Structures (Unit, SystemUnit, Link, Drive, System) mirror
+# runner.h, where C declares the loop's interface; tests/test_native_interface.py checks
+# that both say the same.
+
+MAX_PORTS = 64  # inputs one unit may have
+
+
+class Failure(IntEnum):
+    """Why a run stopped (System.fail_kind; runner.h's enum FailKind)."""
+
+    NONE = 0
+    CALL = 1  # an fmi2 call failed (the FMU has logged why)
+    NOT_CONVERGED = 2  # a coupled step did not converge
+    NO_MEMORY = 3  # out of memory, or more links than the loop's fixed arrays hold
+    INCONSISTENT_POINT = 4  # the connected signals could not be made consistent at one instant
+    TOO_MANY_PORTS = 5  # a unit has more than MAX_PORTS inputs
 
 
 class Unit(ctypes.Structure):
     _fields_ = [("component", ctypes.c_void_p), ("set_real", ctypes.c_void_p),
                 ("get_real", ctypes.c_void_p), ("do_step", ctypes.c_void_p),
                 ("set_input_derivatives", ctypes.c_void_p)]
-
-
-def _library_path() -> Path:
-    text = SOURCE.read_bytes() + b"".join(header.read_bytes() for header in HEADERS)
-    digest = hashlib.sha256(text + " ".join(CFLAGS).encode()).hexdigest()[:16]
-    return BUILD_DIR / f"runner-{digest}.so"
-
-
-@lru_cache(maxsize=1)
-def library() -> ctypes.CDLL:
-    """The runner library, compiled first if missing or stale."""
-    import subprocess
-
-    path = _library_path()
-    if not path.exists():
-        BUILD_DIR.mkdir(parents=True, exist_ok=True)
-        partial = path.with_name(f".{path.name}.{os.getpid()}")
-        command = [os.environ.get("CC", "gcc"), *CFLAGS, "-shared", "-I", str(FMI_HEADERS), str(SOURCE),
-                   "-o", str(partial), "-lm"]
-        done = subprocess.run(command, capture_output=True, text=True)
-        if done.returncode != 0:
-            raise BuildError(f"compiling {SOURCE} failed:\n{done.stderr}")
-        os.replace(partial, path)
-    lib = ctypes.CDLL(str(path))
-    lib.pendfmu_run_single.restype = ctypes.c_long
-    lib.pendfmu_run_single.argtypes = [
-        ctypes.POINTER(Unit), ctypes.c_size_t, ctypes.POINTER(ctypes.c_double),
-        ctypes.c_size_t, ctypes.POINTER(ctypes.c_uint), ctypes.POINTER(ctypes.c_double),
-        ctypes.POINTER(ctypes.c_double), ctypes.c_size_t, ctypes.POINTER(ctypes.c_uint),
-        ctypes.POINTER(ctypes.c_double)]
-    lib.pendfmu_run_system.restype = ctypes.c_int
-    lib.pendfmu_run_system.argtypes = [ctypes.POINTER(System)]
-    return lib
 
 
 class SystemUnit(ctypes.Structure):
@@ -97,6 +82,33 @@ class System(ctypes.Structure):
                 ("fail_unit", ctypes.c_int), ("last_change", ctypes.c_double)]
 
 
+def _library_path() -> Path:
+    text = SOURCE.read_bytes() + b"".join(header.read_bytes() for header in HEADERS)
+    digest = hashlib.sha256(text + " ".join(CFLAGS).encode()).hexdigest()[:16]
+    return BUILD_DIR / f"runner-{digest}{LIBRARY_SUFFIX}"
+
+
+@lru_cache(maxsize=1)
+def library() -> ctypes.CDLL:
+    """The runner library, compiled first if missing or stale."""
+    path = _library_path()
+    if not path.exists():
+        BUILD_DIR.mkdir(parents=True, exist_ok=True)
+        partial = path.with_name(f".{path.name}.{os.getpid()}")
+        compile_library([SOURCE], partial)  # runner.c finds its headers beside it
+        os.replace(partial, path)
+    lib = ctypes.CDLL(str(path))
+    lib.pendfmu_run_single.restype = ctypes.c_long
+    lib.pendfmu_run_single.argtypes = [
+        ctypes.POINTER(Unit), ctypes.c_size_t, ctypes.POINTER(ctypes.c_double),
+        ctypes.c_size_t, ctypes.POINTER(ctypes.c_uint), ctypes.POINTER(ctypes.c_double),
+        ctypes.POINTER(ctypes.c_double), ctypes.c_size_t, ctypes.POINTER(ctypes.c_uint),
+        ctypes.POINTER(ctypes.c_double)]
+    lib.pendfmu_run_system.restype = ctypes.c_int
+    lib.pendfmu_run_system.argtypes = [ctypes.POINTER(System)]
+    return lib
+
+
 def system_unit_of(slave) -> SystemUnit:
     address = lambda function: ctypes.cast(function, ctypes.c_void_p).value  # noqa: E731
     return SystemUnit(unit_of(slave), address(slave.dll.fmi2GetFMUstate), address(slave.dll.fmi2SetFMUstate),
@@ -131,7 +143,7 @@ def run_system(slaves: list, links: list[tuple[int, int, int, int]], drives: lis
         _array(ctypes.c_long, [-1 if vr is None else vr for vr in clocks]), tolerance, max_iterations,
         len(times), _doubles(times), record.ctypes.data_as(ctypes.POINTER(ctypes.c_ubyte)),
         len(outputs), _array(ctypes.c_int, [u for u, _ in outputs]), _array(ctypes.c_uint, [v for _, v in outputs]),
-        _doubles(result), 0, 0, 0, 0.0, 0, -1, 0.0)
+        _doubles(result), 0, 0, 0, 0.0, Failure.NONE, -1, 0.0)
     library().pendfmu_run_system(ctypes.byref(system))
     return result, system
 
@@ -151,9 +163,6 @@ def _refs(values: list[int]):
     return (ctypes.c_uint * len(values))(*values) if values else None
 
 
-MAX_INPUTS = 64
-
-
 def run_single(unit: Unit, times: np.ndarray, input_vrs: list[int], inputs: np.ndarray, output_vrs: list[int],
                slopes: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Step an initialized instance (`unit`: unit_of its FMU2Slave) through `times`; each
@@ -162,8 +171,8 @@ def run_single(unit: Unit, times: np.ndarray, input_vrs: list[int], inputs: np.n
     held.
 
     Returns (outputs n_points x n_outputs, index of a failing point or -1)."""
-    if len(input_vrs) > MAX_INPUTS:
-        raise ValueError(f"the native loop takes at most {MAX_INPUTS} inputs")
+    if len(input_vrs) > MAX_PORTS:
+        raise ValueError(f"the native loop takes at most {MAX_PORTS} inputs")
     times = np.ascontiguousarray(times, dtype=float)
     inputs = np.ascontiguousarray(inputs, dtype=float).reshape(len(times), len(input_vrs))
     if slopes is not None:

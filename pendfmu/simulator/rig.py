@@ -10,6 +10,7 @@ from collections.abc import Mapping
 
 import pandas as pd
 
+from pendfmu.components import CART
 from pendfmu.fmubuild import build_all
 from pendfmu.fmubuild.compiler import FMUS_DIR
 from pendfmu.parameters import check_parameters, with_initial_states
@@ -20,7 +21,6 @@ from pendfmu.ssp import rig_system
 # The columns of `pendfmu simulate`'s output, in order (a command-line contract).
 OUTPUT_COLUMNS = {"I": "CurrentLoop.I", "x": "Cart.x", "v": "Cart.v", "a": "Cart.a",
                   "phi": "Pendulum.phi", "w": "Pendulum.w"}
-DEFAULT_ETA = 0.4
 
 
 def experiment_parameters(parameters: Mapping[str, float], recording: Recording) -> dict[str, float]:
@@ -40,7 +40,7 @@ def simulate_recording(parameters: Mapping[str, float], recording: Recording, st
                              f"columns: {', '.join(('time', *recording.signals))}")
     values = experiment_parameters(parameters, recording)
     build_all()
-    system = rig_system(values.get("eta", DEFAULT_ETA), FMUS_DIR, values, step_size=step)
+    system = rig_system(values.get("eta", CART.variable("eta").start), FMUS_DIR, values, step_size=step)
     master = Master.from_system(system)
     drive = ExternalInput(recording.time, recording.signal("I_c"), interpolation)
     result = master.run(recording.time, list(OUTPUT_COLUMNS.values()), {"CurrentLoop.I_c": drive})

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
-from pendfmu.components import COMPONENTS
+from pendfmu.components import COMPONENTS, SELF_LOCKING_ETA
+from pendfmu.ranges import outside
 from pendfmu.ssp.fmu import FmuDescription, describe_fmu
 from pendfmu.ssp.model import Connection, Experiment, FmuComponent, ParameterValue, System
 
@@ -14,10 +14,6 @@ RIG_COMPONENTS = ("CurrentLoop", "Cart", "Pendulum")
 # One pendulum sits on the cart: its mass and centre-of-mass distance appear in both the
 # Cart (back-drive force) and the Pendulum (its dynamics) and must be the same number.
 SHARED_PARAMETERS = ("m_p", "l")
-
-# A lead screw with eta <= 0.5 is self-locking: the pendulum cannot push the cart back,
-# so the cart needs no pendulum inputs (MODEL.md, A(eta)).
-SELF_LOCKING_ETA = 0.5
 
 DRIVE = (("CurrentLoop.I_mean", "Cart.I"), ("Cart.a", "Pendulum.a"))
 BACK_DRIVE = (("Pendulum.phi", "Cart.phi"), ("Pendulum.w", "Cart.w"), ("Pendulum.alpha", "Cart.alpha"))
@@ -53,11 +49,9 @@ def _targets(key: str, starts: dict[str, dict[str, ParameterValue]]) -> list[tup
 
 def _check_range(component: str, name: str, value: float) -> None:
     """Reject a value the FMU would reject at instantiation, while the cause is still obvious."""
-    variable = COMPONENTS[component].variable(name)
-    low_ok = variable.low is None or (value > variable.low if variable.low_open else value >= variable.low)
-    high_ok = variable.high is None or value <= variable.high
-    if not (math.isfinite(value) and low_ok and high_ok):
-        raise ValueError(f"{component}.{name} = {value!r} is outside its allowed range {variable.allowed_range()}")
+    problem = outside(f"{component}.{name}", value, [COMPONENTS[component].variable(name)])
+    if problem:
+        raise ValueError(problem)
 
 
 def rig_parameters(eta: float, parameters: dict | None,
@@ -90,7 +84,7 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
                name: str = "PendulumRig", parameter_set: str = "rig") -> System:
     """The rig as an SSP system of the FMUs in `fmu_dir` (CurrentLoop.fmu, Cart.fmu, Pendulum.fmu).
 
-    `eta` is the screw efficiency: above 0.5 the pendulum's phi, w and alpha feed back into
+    `eta` is the screw efficiency: above SELF_LOCKING_ETA (0.5) the pendulum's phi, w and alpha feed back into
     the cart (5 connections), otherwise only current -> cart -> pendulum (2 connections).
     `parameters` maps "name" (every component that has it) or "Component.name" to a value
     in the FMU's unit; m_p and l always go to both Cart and Pendulum. The default step size
