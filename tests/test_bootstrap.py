@@ -21,7 +21,8 @@ from scipy.stats import t as student_t
 
 from pendfmu.fitting.bootstrap import Replicates, bootstrap_estimates, synthetic_experiment
 from pendfmu.fitting.identification import fit
-from pendfmu.fitting.stages import make_experiment, rig_defaults
+from pendfmu.components import rig_defaults
+from pendfmu.fitting.stages import make_experiment
 from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.recording import read_recording
 from pendfmu.fitting.residuals import FreeParameter, unit_of

@@ -24,7 +24,8 @@ def cluster():
 @pytest.fixture
 def cart_residuals(cart_recording):
     """The cart stage's residuals for the recording, as a fit builds them."""
-    from pendfmu.fitting.stages import make_experiment, rig_defaults, stage_free_parameters
+    from pendfmu.components import rig_defaults
+    from pendfmu.fitting.stages import make_experiment, stage_free_parameters
     from pendfmu.recording import read_recording
     from pendfmu.fitting.residuals import Residuals
 

@@ -25,7 +25,8 @@ from pendfmu.fitting.plausibility import SuspiciousData, check_experiment
 from pendfmu.fitting.progress import Progress
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.fitting.result import ExperimentFit, FitResult, flag_warnings, nrmse
-from pendfmu.fitting.stages import STAGES, make_experiment, rig_defaults, stage_free_parameters
+from pendfmu.components import rig_defaults
+from pendfmu.fitting.stages import STAGES, make_experiment, stage_free_parameters
 from pendfmu.fitting.stiction import JOINTS, bound_stiction
 from pendfmu.fitting.uncertainty import REPLICATES, assess_uncertainty
 from pendfmu.parameters import ParameterFileError, check_parameters

@@ -23,7 +23,6 @@ from functools import lru_cache
 
 import numpy as np
 
-from pendfmu import components
 from pendfmu.components import COMPONENTS
 from pendfmu.fitting.experiment import Experiment, Setup, prepare
 from pendfmu.fitting.residuals import FreeParameter
@@ -161,11 +160,6 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
     "m_c": (0.05, 100.0, True), "x0": (-1.0, 1.0, False), "v0": (-5.0, 5.0, False),
     "J_p": (1e-6, 10.0, True), "w0": (-20.0, 20.0, False),
 }
-
-
-# A fit starts from the table's defaults (MODEL.md's reference rig), then the given values.
-# The name stays here for identification.py, which imports it from this module.
-rig_defaults = components.rig_defaults
 
 
 SEARCH_DECADE = 10.0  # default search box: the given value divided and multiplied by this
