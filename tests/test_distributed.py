@@ -54,8 +54,10 @@ def test_workers_keep_their_fmu_instances_across_generations(cluster, cart_resid
 
     def instances(dask_worker):
         copies = [a.residuals for a in dask_worker.state.actors.values() if isinstance(a, CandidateEvaluator)]
-        return [(c.evaluations, sum(len(s._fmus) for s in c.simulators), id(s._fmus["Cart"].slave.component))
-                for c in copies for s in c.simulators[:1]]
+        def cart(pool):
+            return next(fmu for (name, _), fmu in pool.items() if name == "Cart")
+
+        return [(c.evaluations, len(s._fmus), id(cart(s._fmus).slave.component)) for c in copies for s in c.simulators[:1]]
 
     evaluator = _Evaluator(cart_residuals, 1, {}, cluster.scheduler_address)
     try:

@@ -23,7 +23,7 @@ import numpy as np
 
 from pendfmu.recording import Recording, RecordingError
 from pendfmu.simulator.model import Model
-from pendfmu.simulator.replay import Drive, Refinement, Replay
+from pendfmu.simulator.replay import Drive, InstancePool, Refinement, Replay
 
 
 @dataclass(frozen=True)
@@ -90,11 +90,12 @@ class Experiment:
     def recorded(self, column: str) -> np.ndarray:
         return self.recording.signal(column)
 
-    def replay(self, decimate: int = 1) -> Replay:
-        """A simulator of this recording (every `decimate`-th sample)."""
+    def replay(self, decimate: int = 1, pool: InstancePool | None = None, copy: int = 0) -> Replay:
+        """A simulator of this recording (every `decimate`-th sample); `pool` and `copy` as
+        for Replay."""
         drives = {name: Drive(self.recording.signal(column), interpolation)
                   for name, (column, interpolation) in self.setup.drives.items()}
-        return Replay(self.model, self.time, drives, decimate, self.setup.refine)
+        return Replay(self.model, self.time, drives, decimate, self.setup.refine, pool, copy)
 
 
 def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float]) -> Experiment:

@@ -179,11 +179,15 @@ def global_search(coarse: Residuals, n: int, seed: int, options: GlobalOptions,
 LOCAL_BUDGET = 30  # least-squares iterations per (free parameter + 1); each also runs n Jacobian columns
 
 
-def local_search(residuals: Residuals, u0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
-    """Trust-region least squares; returns (u, Jacobian, residual, a note if it did not converge)."""
+def local_search(residuals: Residuals, u0: np.ndarray, threads: int = 1
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
+    """Trust-region least squares; returns (u, Jacobian, residual, a note if it did not
+    converge). `threads` > 1 computes the finite-difference Jacobian's columns on that many
+    threads (Residuals.jacobian_map): the same numbers, sooner."""
     with threadpool_limits(1, user_api="blas"):
         result = least_squares(residuals, u0, bounds=(0.0, 1.0), method="trf", diff_step=1e-7, x_scale=1.0,
-                               xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=LOCAL_BUDGET * (len(u0) + 1))
+                               xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=LOCAL_BUDGET * (len(u0) + 1),
+                               workers=residuals.jacobian_map(threads))
     note = None
     if result.status == 0:
         note = (f"the local refinement stopped at its budget of {LOCAL_BUDGET * (len(u0) + 1)} iterations "
@@ -217,7 +221,7 @@ def optimize(residuals: Residuals, coarse: Residuals | None, u0: np.ndarray, see
     if progress:
         progress("local refinement (least squares)")
     if len(u0):
-        u, jacobian, residual = _best_local(residuals, starts, messages)
+        u, jacobian, residual = _best_local(residuals, starts, messages, jacobian_threads(options))
         u, jacobian, residual = snap_to_bounds(residuals, u, jacobian, residual)
     else:
         u, residual = u0, residuals(u0)
@@ -227,11 +231,20 @@ def optimize(residuals: Residuals, coarse: Residuals | None, u0: np.ndarray, see
                    time.perf_counter() - start, global_best, messages)
 
 
-def _best_local(residuals: Residuals, starts: list[np.ndarray], messages: list[str]):
+def jacobian_threads(options: GlobalOptions) -> int:
+    """Threads for the local refinement's Jacobian: one per core, or --workers if fewer
+    (with --workers 1, one); one on a Dask cluster, whose cores are elsewhere."""
+    cores = os.cpu_count() or 1
+    if options.scheduler:
+        return 1
+    return max(1, min(options.workers or cores, cores))
+
+
+def _best_local(residuals: Residuals, starts: list[np.ndarray], messages: list[str], threads: int = 1):
     """The local refinement from each start; the lowest optimum, and a note when they differ."""
     found = []
     for u0 in starts:
-        u, jacobian, residual, note = local_search(residuals, u0)
+        u, jacobian, residual, note = local_search(residuals, u0, threads)
         found.append((float(residual @ residual), u, jacobian, residual, note))
     best = min(range(len(found)), key=lambda k: found[k][0])
     cost, u, jacobian, residual, note = found[best]

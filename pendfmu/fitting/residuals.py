@@ -15,6 +15,8 @@ simulated value that lies inside the recorded reading's quantization interval as
 from __future__ import annotations
 
 import math
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -22,6 +24,7 @@ import numpy as np
 
 from pendfmu.fitting.experiment import Experiment
 from pendfmu.simulator.component import FMUError
+from pendfmu.simulator.replay import InstancePool, Replay
 
 # Residual given to every sample of a simulation that failed. It must exceed any residual
 # a poor but successful simulation produces (a centimetre against a 2.8 um encoder scale is
@@ -111,7 +114,13 @@ class Residuals:
         self.free = list(free)
         self.shared = dict(shared)
         self.cost = cost
-        self.simulators = [e.replay(decimate) for e in self.experiments]
+        self.decimate = decimate
+        pool = InstancePool()  # one for all the experiments: each FMU is loaded once per fit
+        self.simulators = [e.replay(decimate, pool) for e in self.experiments]
+        self._owner: int | None = None  # the thread that runs self.simulators
+        self._threads: dict[int, list[Replay]] = {}  # another thread's own replays (Jacobian columns)
+        self._lock = threading.Lock()
+        self._executor: ThreadPoolExecutor | None = None
         self.evaluations = 0
         self.failures = 0
         self.last_failure = ""
@@ -128,15 +137,17 @@ class Residuals:
 
     def simulate(self, u: Sequence[float], extra: tuple[str, ...] = ()) -> list[dict[str, np.ndarray]]:
         """Per experiment, its matched outputs (and `extra` outputs) by output name."""
-        return [s.simulate(self.values(u, e), [*e.match, *extra]) for s, e in zip(self.simulators, self.experiments)]
+        return [s.simulate(self.values(u, e), [*e.match, *extra]) for s, e in zip(self._here(), self.experiments)]
 
     def __call__(self, u: Sequence[float]) -> np.ndarray:
-        self.evaluations += 1
+        with self._lock:
+            self.evaluations += 1
         try:
             simulated = self.simulate(u)
         except FMUError as error:
-            self.failures += 1
-            self.last_failure = str(error)
+            with self._lock:
+                self.failures += 1
+                self.last_failure = str(error)
             return np.full(self.size, PENALTY)
         parts = []
         for k, (experiment, result) in enumerate(zip(self.experiments, simulated)):
@@ -144,10 +155,49 @@ class Residuals:
                 parts.append(self._scaled(k, column, result[output]))
         residual = np.concatenate(parts)
         if not np.all(np.isfinite(residual)):
-            self.failures += 1
-            self.last_failure = "the simulation returned NaN or Inf"
+            with self._lock:
+                self.failures += 1
+                self.last_failure = "the simulation returned NaN or Inf"
             return np.full(self.size, PENALTY)
         return residual
+
+    # -- threads
+
+    def _here(self) -> list[Replay]:
+        """The replays of the calling thread: the first thread to simulate runs
+        self.simulators; any other its own replays, with FMU instances loaded from a copy of
+        the binaries of its own (no globals shared between threads, whatever the FMU)."""
+        thread = threading.get_ident()
+        if self._owner is None:
+            self._owner = thread
+        if thread == self._owner:
+            return self.simulators
+        replays = self._threads.get(thread)
+        if replays is None:
+            with self._lock:
+                copy = len(self._threads) + 1
+                pool = InstancePool()
+                replays = self._threads[thread] = [e.replay(self.decimate, pool, copy) for e in self.experiments]
+        return replays
+
+    def jacobian_map(self, threads: int):
+        """A map-like for least_squares' finite-difference columns (its `workers`) that
+        runs them on `threads` threads, or None for one. The FMUs' C code runs without the
+        GIL, so the columns' simulations overlap; each column is the same evaluation as in
+        one thread, so the fit is the same to the bit. One thread where an FMU declares
+        canBeInstantiatedOnlyOncePerProcess."""
+        if threads <= 1 or any(e.model.instantiated_once_per_process() for e in self.experiments[:1]):
+            return None
+        if self._executor is None:
+            self._executor = ThreadPoolExecutor(threads - 1, thread_name_prefix="pendfmu-jacobian")
+
+        def columns(function, points):
+            points = list(points)
+            theirs = {k: self._executor.submit(function, x) for k, x in enumerate(points) if k % threads}
+            mine = {k: function(x) for k, x in enumerate(points) if k % threads == 0}
+            return [mine[k] if k in mine else theirs[k].result() for k in range(len(points))]
+
+        return columns
 
     def _scaled(self, k: int, column: str, simulated: np.ndarray) -> np.ndarray:
         recorded, scale, resolution = self._targets(k, column)
@@ -171,5 +221,19 @@ class Residuals:
         return float(residual @ residual)
 
     def close(self) -> None:
-        for simulator in self.simulators:
+        if self._executor is not None:
+            self._executor.shutdown(wait=True)
+            self._executor = None
+        for simulator in [*self.simulators, *(r for replays in self._threads.values() for r in replays)]:
             simulator.close()
+        self._threads.clear()
+
+    def __getstate__(self):
+        """Sent to worker processes without threads, locks or other threads' replays."""
+        state = dict(self.__dict__)
+        state.update(_owner=None, _threads={}, _lock=None, _executor=None)
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._lock = threading.Lock()

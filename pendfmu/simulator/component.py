@@ -37,14 +37,16 @@ class ParameterError(BadInput):
     """A parameter name that the component does not have."""
 
 
-def unpacked_fmu(name: str, fmu: str | Path | None = None) -> tuple[Path, object]:
+def unpacked_fmu(name: str, fmu: str | Path | None = None, copy: int = 0) -> tuple[Path, object]:
     """(unzip directory, model description) of component `name`, unpacked once per GUID.
 
     Without `fmu` the component is built from source if needed; with it, that file is used
-    (an FMU from an .ssp archive or an exported, re-parameterized one)."""
+    (an FMU from an .ssp archive or an exported, re-parameterized one). `copy` > 0 unpacks
+    another copy: its binary is loaded as a library of its own, with its own globals, so
+    that instances in different threads share nothing (see Residuals' Jacobian threads)."""
     path = Path(fmu) if fmu is not None else ensure_fmu(name)
     md = _model_description(path)
-    key = f"{path.resolve()}:{md.guid}"
+    key = f"{path.resolve()}:{md.guid}:{copy}"
     if key not in _UNPACKED:
         directory = Path(tempfile.mkdtemp(prefix=f"pendfmu-{name}-"))
         extract(str(path), str(directory))
@@ -74,9 +76,10 @@ class ComponentFMU:
     """
 
     def __init__(self, name: str, parameters: Mapping[str, float] | None = None, start_time: float = 0.0,
-                 log_events: bool = False, fmu: str | Path | None = None, instance: str | None = None):
+                 log_events: bool = False, fmu: str | Path | None = None, instance: str | None = None,
+                 copy: int = 0):
         self.messages: list[str] = []
-        directory, md = unpacked_fmu(name, fmu)
+        directory, md = unpacked_fmu(name, fmu, copy)
         if md.coSimulation is None:
             raise ParameterError(f"{fmu or name}: a Model-Exchange-only FMU; pendfmu co-simulates (export it with "
                                  f"Co-Simulation)")

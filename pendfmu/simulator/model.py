@@ -148,6 +148,13 @@ class Model:
 
     # -- names
 
+    def instantiated_once_per_process(self) -> bool:
+        """Whether an FMU of the model declares canBeInstantiatedOnlyOncePerProcess (then a
+        fit keeps one instance of it, and runs no simulation in a second thread)."""
+        return any(instance.fmu is not None and
+                   bool(getattr(instance.description().coSimulation, "canBeInstantiatedOnlyOncePerProcess", False))
+                   for instance in self.instances.values())
+
     def names(self, causality: str) -> list[str]:
         """The names a fit may use for the model's parameters, free inputs or outputs."""
         return list(self._names[causality])

@@ -49,14 +49,27 @@ def _slopes(times: np.ndarray, values: np.ndarray) -> np.ndarray:
     return np.append(np.diff(values) / np.diff(times), 0.0)
 
 
+class InstancePool(dict):
+    """FMU instances shared by the replays of one fit, by (instance, FMU file or kind).
+    Every run resets and initializes its instance first, so replays that run one after
+    the other can share it: a fit of several recordings loads each FMU once, and an FMU
+    that declares canBeInstantiatedOnlyOncePerProcess gets one instance. Pickled empty
+    (a worker process makes its own), and as one object for all the replays that share it."""
+
+    def __reduce__(self):
+        return (InstancePool, ())
+
+
 class Replay:
     """Runs `model` at a recording's time stamps (every `decimate`-th one, for a cheaper
     first look in a global search), its inputs driven by `drives` (input name -> Drive).
     `refine`, where given, adds communication points between samples (the cart stage
-    steps the settling current on a finer grid)."""
+    steps the settling current on a finer grid). `pool` shares FMU instances with other
+    replays run from the same thread; `copy` > 0 loads the FMUs from a copy of their
+    binaries of their own (for a replay run in another thread, see unpacked_fmu)."""
 
     def __init__(self, model: Model, time: np.ndarray, drives: Mapping[str, Drive], decimate: int = 1,
-                 refine: Refinement | None = None):
+                 refine: Refinement | None = None, pool: InstancePool | None = None, copy: int = 0):
         self.coupled = any(len(group) > 1 for group in model.order)
         if self.coupled and refine is not None:
             raise ModelError(f"{model.name}: a refined grid is for models without coupled components")
@@ -70,7 +83,8 @@ class Replay:
             if drive.interpolation not in INTERPOLATIONS:
                 raise ModelError(f"{port}: interpolation must be hold or linear, not {drive.interpolation!r}")
         self.refine = refine
-        self._fmus: dict[str, ComponentFMU] = {}
+        self._fmus = InstancePool() if pool is None else pool
+        self.copy = copy
         self._kept: dict[str, tuple[bytes, dict[Port, np.ndarray]]] = {}
         self._layouts: dict[tuple[str, ...], tuple] = {}
         self._drive_columns: dict[str, tuple] = {}
@@ -80,11 +94,13 @@ class Replay:
 
     def _fmu(self, name: str, parameters: Mapping[str, float]) -> ComponentFMU:
         instance = self.model.instances[name]
-        fmu = self._fmus.get(name)
+        key = (name, str(instance.fmu) if instance.fmu is not None else instance.kind)
+        fmu = self._fmus.get(key)
         start = float(self.times[0])
         if fmu is None:
             label = instance.kind if instance.fmu is None else name
-            fmu = self._fmus[name] = ComponentFMU(label, parameters, start_time=start, fmu=instance.fmu, instance=name)
+            fmu = self._fmus[key] = ComponentFMU(label, parameters, start_time=start, fmu=instance.fmu, instance=name,
+                                                 copy=self.copy)
         else:
             fmu.restart(parameters, start_time=start)
         return fmu
@@ -211,7 +227,6 @@ class Replay:
     def __getstate__(self):
         """Sent to worker processes without its FMU instances; each worker makes its own."""
         state = dict(self.__dict__)
-        state["_fmus"] = {}
         state["_kept"] = {}
         state["_master"] = None
         return state
