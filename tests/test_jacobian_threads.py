@@ -24,14 +24,14 @@ def cart(tmp_path_factory):
     return folder, fmu, [recordings[name] for name in FIT_NAMES]
 
 
-def _residuals(fmu, paths) -> tuple[Residuals, np.ndarray]:
+def _residuals(fmu, paths, fitted=FITTED) -> tuple[Residuals, np.ndarray]:
     model = load_model(fmu)
     start = {name: TRUTH[name] * (1.3 if k % 2 == 0 else 0.7) for k, name in enumerate(FITTED)}
     values = {**model.defaults(), "m": TRUTH["m"], **start}
     initial = initial_map(model, None)
     recordings = read_for(model, paths, None, None, initial)
     experiments = model_experiments(model, recordings, values, None, None, initial)
-    free = model_free_parameters(model, list(FITTED), [], {}, values)
+    free = model_free_parameters(model, list(fitted), [], {}, values)
     return Residuals(experiments, free, values), unit_of(free, [values[p.name] for p in free])
 
 
@@ -83,5 +83,15 @@ def test_an_fmu_instantiated_once_per_process_gets_one_instance_and_one_thread(c
         assert residuals.jacobian_map(2) is None
         local_search(residuals, u0, threads=2)
         assert not residuals._threads and len(residuals.simulators[0]._fmus) == 1
+    finally:
+        residuals.close()
+
+
+def test_a_jacobian_of_two_columns_stays_on_one_thread(cart):
+    _, fmu, paths = cart
+    residuals, u0 = _residuals(fmu, paths, FITTED[:2])
+    try:
+        local_search(residuals, u0, threads=2)
+        assert not residuals._threads
     finally:
         residuals.close()
