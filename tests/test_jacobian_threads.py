@@ -1,9 +1,11 @@
 """The local refinement's Jacobian on threads, and FMU instances shared by a fit's
 recordings: the same numbers as one thread, each FMU loaded once per thread, and an FMU
-that declares canBeInstantiatedOnlyOncePerProcess kept to one instance and one thread."""
+that declares canBeInstantiatedOnlyOncePerProcess kept to one instance in the process
+(every fit and replay shares it) and one thread."""
 
 from __future__ import annotations
 
+import pickle
 import zipfile
 
 import numpy as np
@@ -83,6 +85,14 @@ def test_an_fmu_instantiated_once_per_process_gets_one_instance_and_one_thread(c
         assert residuals.jacobian_map(2) is None
         local_search(residuals, u0, threads=2)
         assert not residuals._threads and len(residuals.simulators[0]._fmus) == 1
+        other, _ = _residuals(once, paths)  # another fit in the same process: the same instance
+        other(u0)
+        assert other.simulators[0]._fmus is residuals.simulators[0]._fmus
+        [instance] = other.simulators[0]._fmus.values()
+        copy = pickle.loads(pickle.dumps(other.simulators[0]))  # as sent to a worker process
+        assert copy._fmus is other.simulators[0]._fmus
+        other.close()
+        assert instance.slave is not None  # kept for the process's next fit
     finally:
         residuals.close()
 

@@ -18,6 +18,7 @@ by the co-simulation master instead (master.py), which iterates the group per st
 
 from __future__ import annotations
 
+import atexit
 import hashlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -60,6 +61,12 @@ class InstancePool(dict):
         return (InstancePool, ())
 
 
+PROCESS_POOL = InstancePool()
+"""The instances of FMUs that declare canBeInstantiatedOnlyOncePerProcess: one per FMU for
+every replay of the process, freed when the process ends."""
+atexit.register(lambda: [fmu.free() for fmu in PROCESS_POOL.values()])
+
+
 class Replay:
     """Runs `model` at a recording's time stamps (every `decimate`-th one, for a cheaper
     first look in a global search), its inputs driven by `drives` (input name -> Drive).
@@ -84,6 +91,8 @@ class Replay:
                 raise ModelError(f"{port}: interpolation must be hold or linear, not {drive.interpolation!r}")
         self.refine = refine
         self._fmus = InstancePool() if pool is None else pool
+        if model.instantiated_once_per_process():
+            self._fmus, copy = PROCESS_POOL, 0
         self.copy = copy
         self._kept: dict[str, tuple[bytes, dict[Port, np.ndarray]]] = {}
         self._layouts: dict[tuple[str, ...], tuple] = {}
@@ -216,9 +225,10 @@ class Replay:
         return {name: frame[str(port)].to_numpy() for name, port in wanted.items()}
 
     def close(self) -> None:
-        for fmu in self._fmus.values():
-            fmu.free()
-        self._fmus.clear()
+        if self._fmus is not PROCESS_POOL:  # those stay for the process's next replay
+            for fmu in self._fmus.values():
+                fmu.free()
+            self._fmus.clear()
         self._kept.clear()
         if self._master is not None:
             self._master.close()
@@ -230,6 +240,11 @@ class Replay:
         state["_kept"] = {}
         state["_master"] = None
         return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        if self.model.instantiated_once_per_process():
+            self._fmus = PROCESS_POOL  # the worker's own one instance
 
 
 def _on_grid(drive: Drive, times: np.ndarray, points: np.ndarray, samples: np.ndarray) -> np.ndarray:
