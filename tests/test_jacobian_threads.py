@@ -105,3 +105,25 @@ def test_a_jacobian_of_two_columns_stays_on_one_thread(cart):
         assert not residuals._threads
     finally:
         residuals.close()
+
+
+def test_co_simulation_masters_share_the_one_instance_too(cart):
+    """The master (coupled systems) takes an FMU declaring canBeInstantiatedOnlyOncePerProcess
+    from the same process pool: two masters, one instance, both runs equal."""
+    from pendfmu.simulator.component import PROCESS_POOL
+    from pendfmu.simulator.master import ExternalInput, Master
+
+    folder, fmu, _ = cart
+    once = _declaring_once_per_process(fmu, folder / "OnceMaster.fmu")
+    times = np.arange(0, 0.201, 1e-3)
+    drive = {"ForeignCart.u": ExternalInput(times, np.where(times > 0.05, 2.0, 0.0))}
+    masters = [Master({"ForeignCart": "ForeignCart"}, [], {"ForeignCart": {"m": 2.0}}, step=1e-3,
+                      fmus={"ForeignCart": once}) for _ in range(2)]
+    try:
+        runs = [m.run(times, ["ForeignCart.x"], drive)["ForeignCart.x"].to_numpy() for m in masters]
+        assert masters[0]._fmus["ForeignCart"] is masters[1]._fmus["ForeignCart"]
+        assert any(instance is masters[0]._fmus["ForeignCart"] for instance in PROCESS_POOL.values())
+        assert np.array_equal(runs[0], runs[1]) and runs[0][-1] > 0
+    finally:
+        for m in masters:
+            m.close()

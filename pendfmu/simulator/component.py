@@ -75,6 +75,39 @@ class FMU2SlaveCached(FMU2Slave):
             self._functions[name] = function
 
 
+class InstancePool(dict):
+    """FMU instances shared by the replays of one fit, by (instance name, FMU file or kind).
+    Every run resets and initializes its instance first, so replays that run one after
+    the other can share it: a fit of several recordings loads each FMU once, and an FMU
+    that declares canBeInstantiatedOnlyOncePerProcess gets one instance. Pickled empty
+    (a worker process makes its own), and as one object for all the replays that share it."""
+
+    def __reduce__(self):
+        return (InstancePool, ())
+
+
+PROCESS_POOL = InstancePool()
+"""The instances of FMUs that declare canBeInstantiatedOnlyOncePerProcess: one per FMU for
+every replay and master of the process, freed when the process ends."""
+atexit.register(lambda: [fmu.free() for fmu in PROCESS_POOL.values()])
+
+
+def once_per_process(description) -> bool:
+    """Whether a model description declares canBeInstantiatedOnlyOncePerProcess."""
+    return bool(getattr(description.coSimulation, "canBeInstantiatedOnlyOncePerProcess", False))
+
+
+def pooled_instance(key: tuple[str, str], pool: InstancePool, make: Callable[[], "ComponentFMU"],
+                    parameters: Mapping[str, float], start_time: float) -> "ComponentFMU":
+    """The pool's instance under `key`, restarted with these values, or a new one."""
+    fmu = pool.get(key)
+    if fmu is None:
+        fmu = pool[key] = make()
+    else:
+        fmu.restart(parameters, start_time=start_time)
+    return fmu
+
+
 class ComponentFMU:
     """A Co-Simulation instance of CurrentLoop, Cart or Pendulum.
 

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from fmpy.fmi1 import FMICallException
 
-from pendfmu.simulator.component import ComponentFMU, FMUError, unpacked_fmu
+from pendfmu.simulator.component import PROCESS_POOL, ComponentFMU, FMUError, once_per_process, pooled_instance, unpacked_fmu
 from pendfmu.simulator.coupled import CoupledSteps, CouplingError
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order, tear_of
 
@@ -176,20 +176,30 @@ class Master(CoupledSteps):
 
     def _instances(self, start_time: float) -> dict[str, ComponentFMU]:
         """The system's FMU instances, made once and reset and re-initialized per run: a
-        fit runs the same system thousands of times."""
+        fit runs the same system thousands of times. An FMU that declares
+        canBeInstantiatedOnlyOncePerProcess has its one instance in the process's pool."""
         if not getattr(self, "_fmus", None):
-            self._fmus = {name: ComponentFMU(kind, self.parameters[name], start_time=start_time,
-                                             fmu=self.fmus.get(name), instance=name)
-                          for name, kind in self.types.items()}
+            self._fmus = {name: self._instance(name, kind, start_time) for name, kind in self.types.items()}
         else:
             for name, fmu in self._fmus.items():
                 fmu.restart(self.parameters[name], start_time)
         return self._fmus
 
+    def _instance(self, name: str, kind: str, start_time: float) -> ComponentFMU:
+        path = self.fmus.get(name)
+
+        def make() -> ComponentFMU:
+            return ComponentFMU(kind, self.parameters[name], start_time=start_time, fmu=path, instance=name)
+
+        if path is not None and once_per_process(unpacked_fmu(kind, path)[1]):
+            return pooled_instance((name, str(path)), PROCESS_POOL, make, self.parameters[name], start_time)
+        return make()
+
     def close(self) -> None:
         """Free the FMU instances (also done when the master is garbage-collected)."""
         for fmu in getattr(self, "_fmus", {}).values():
-            fmu.free()
+            if fmu not in PROCESS_POOL.values():  # the process's one instance stays
+                fmu.free()
         self._fmus = {}
 
     def __del__(self) -> None:

@@ -23,7 +23,7 @@ from pathlib import Path
 from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
 from pendfmu.recording.schema import Vocabulary
-from pendfmu.simulator.component import unpacked_fmu
+from pendfmu.simulator.component import once_per_process, unpacked_fmu
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
 
 
@@ -151,8 +151,7 @@ class Model:
     def instantiated_once_per_process(self) -> bool:
         """Whether an FMU of the model declares canBeInstantiatedOnlyOncePerProcess (then a
         fit keeps one instance of it, and runs no simulation in a second thread)."""
-        return any(instance.fmu is not None and
-                   bool(getattr(instance.description().coSimulation, "canBeInstantiatedOnlyOncePerProcess", False))
+        return any(instance.fmu is not None and once_per_process(instance.description())
                    for instance in self.instances.values())
 
     def names(self, causality: str) -> list[str]:

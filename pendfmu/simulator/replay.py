@@ -18,7 +18,6 @@ by the co-simulation master instead (master.py), which iterates the group per st
 
 from __future__ import annotations
 
-import atexit
 import hashlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -26,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendfmu.errors import FMUError
-from pendfmu.simulator.component import ComponentFMU
+from pendfmu.simulator.component import PROCESS_POOL, ComponentFMU, InstancePool, pooled_instance
 from pendfmu.simulator.model import Model, ModelError, Port
 from pendfmu.simulator.native import run_single
 
@@ -48,23 +47,6 @@ Refinement = Callable[[np.ndarray, Mapping[str, np.ndarray], Mapping[str, float]
 def _slopes(times: np.ndarray, values: np.ndarray) -> np.ndarray:
     """The slope of each step towards the next point (the last one is unused)."""
     return np.append(np.diff(values) / np.diff(times), 0.0)
-
-
-class InstancePool(dict):
-    """FMU instances shared by the replays of one fit, by (instance, FMU file or kind).
-    Every run resets and initializes its instance first, so replays that run one after
-    the other can share it: a fit of several recordings loads each FMU once, and an FMU
-    that declares canBeInstantiatedOnlyOncePerProcess gets one instance. Pickled empty
-    (a worker process makes its own), and as one object for all the replays that share it."""
-
-    def __reduce__(self):
-        return (InstancePool, ())
-
-
-PROCESS_POOL = InstancePool()
-"""The instances of FMUs that declare canBeInstantiatedOnlyOncePerProcess: one per FMU for
-every replay of the process, freed when the process ends."""
-atexit.register(lambda: [fmu.free() for fmu in PROCESS_POOL.values()])
 
 
 class Replay:
@@ -104,15 +86,11 @@ class Replay:
     def _fmu(self, name: str, parameters: Mapping[str, float]) -> ComponentFMU:
         instance = self.model.instances[name]
         key = (name, str(instance.fmu) if instance.fmu is not None else instance.kind)
-        fmu = self._fmus.get(key)
         start = float(self.times[0])
-        if fmu is None:
-            label = instance.kind if instance.fmu is None else name
-            fmu = self._fmus[key] = ComponentFMU(label, parameters, start_time=start, fmu=instance.fmu, instance=name,
-                                                 copy=self.copy)
-        else:
-            fmu.restart(parameters, start_time=start)
-        return fmu
+        label = instance.kind if instance.fmu is None else name
+        return pooled_instance(key, self._fmus, lambda: ComponentFMU(label, parameters, start_time=start,
+                                                                      fmu=instance.fmu, instance=name, copy=self.copy),
+                               parameters, start)
 
     # -- running
 
