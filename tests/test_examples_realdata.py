@@ -51,6 +51,15 @@ def test_run_names_the_missing_file_and_exits_2(tmp_path, name):
     assert not (tmp_path / "out" / "result.json").exists()
 
 
+def test_run_refuses_an_outdir_git_could_commit(tmp_path):
+    """The converted data are derived from files licensed for internal testing only: an
+    OUTDIR inside the repository (other than the git-ignored out/) is refused, exit 2."""
+    inside = EXAMPLES / "kord-stk" / "converted"
+    done = run("kord-stk", inside)
+    assert done.returncode == 2 and "inside the repository" in done.stderr, done.stderr
+    assert not inside.exists()
+
+
 @pytest.mark.parametrize("name", NAMES)
 def test_run_writes_the_result(tmp_path, name):
     convert = rd.load_example(name)

@@ -98,15 +98,27 @@ def missing_source(convert) -> Path | None:
     return next((Path(p) for p in convert.SOURCES if not Path(p).is_file()), None)
 
 
+def committable(folder: Path) -> bool:
+    """Whether files in `folder` could end up in a commit: inside the repository and not
+    under its git-ignored ``out/``. Derived data must not (the raw files' licences)."""
+    folder = folder.resolve()
+    return folder.is_relative_to(ROOT) and not folder.is_relative_to(ROOT / "out")
+
+
 def run_example(convert, argv: list[str] | None = None, finish=None) -> int:
     """``run OUTDIR``: convert the raw files into OUTDIR, fit through pendfmu's command
     line, leave ``OUTDIR/result.json`` (what ``pendfmu fit --out`` writes) and
     ``OUTDIR/command.txt`` (the command, to repeat by hand). `finish(path)` may add to the
-    result afterwards. Exit code: pendfmu's, or 2 when the raw data are absent."""
+    result afterwards. Exit code: pendfmu's, or 2 when the raw data are absent or OUTDIR
+    lies where git could pick it up (:func:`committable`)."""
     argv = sys.argv[1:] if argv is None else argv
     name = Path(convert.__file__).parent.name
     if len(argv) != 1:
         print(f"usage: examples/realdata/{name}/run OUTDIR", file=sys.stderr)
+        return 2
+    if committable(Path(argv[0])):
+        print(f"{name}: OUTDIR {argv[0]} is inside the repository: the converted data must stay out of it "
+              f"(use a folder outside it, or under {ROOT / 'out'}, which git ignores)", file=sys.stderr)
         return 2
     missing = missing_source(convert)
     if missing is not None:
