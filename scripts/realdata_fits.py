@@ -4,7 +4,7 @@
                                     [--cli='--uncertainty jacobian'] [--work out/realdata-fits]
                                     [--json out/realdata-fits.json]
 
-For each data set of ``tests/realdata_cases.py`` (adapters in ``tests/realdata*.py``) the
+For each data set of ``tests/realdata_cases.py`` (conversions in ``examples/realdata/*/convert.py``) the
 recordings are written into a temporary work folder (default ``out/realdata-fits``, which
 git ignores: the recordings are derived from data licensed for internal testing only and
 must never be committed), then ``pendfmu fit STAGE ... --seed S`` runs in-process through

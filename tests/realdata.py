@@ -1,22 +1,20 @@
-"""Adapters from third-party real recordings to pendfmu Recordings, and independent
-estimates to check pendfmu's fits against.
+"""Independent estimates to check pendfmu's fits of real recordings against, and the fits
+the tests make through the Python API.
 
-The files live in ``<repo>/../shared/realdata/<name>/`` with a ``SOURCE.txt`` each. Their
-licences allow internal testing only: nothing here copies them or writes anything derived
-from them; the adapters read the originals and build Recordings in memory. Callers skip
-when the files are absent (:func:`available`).
+The conversions of the raw files into Recordings live in ``examples/realdata/<name>/
+convert.py`` (one copy, shared with the examples and ``scripts/realdata_fits.py``), loaded
+here as :data:`kord` and :data:`multiarm`. The files live in ``../shared/realdata/<name>/``
+(or ``PENDFMU_REALDATA``) with a ``SOURCE.txt`` each. Their licences allow internal testing
+only: nothing here copies them or writes anything derived from them. Callers skip when the
+files are absent (:func:`available`).
 
 Two data sets, two stages:
 
-* ``kord-stk/LaTest.CSV`` (current stage): an oscilloscope capture of a locked-rotor DC
-  motor after an open-loop voltage step, measured over a 0.05 ohm shunt. Electrically an
-  R-L circuit, ``I(t) = I_final (1 - exp(-(t - t0) R/L))``: in the CurrentLoop model a step
-  of ``I_c`` with ``T_i = L/R`` and a slope limit that never binds. The step time and
-  level are not recorded (there is no command channel), so they are estimated from the
-  current itself, first from plain statistics and then refined together with ``T_i``
-  (:func:`fit_locked_rotor`).
-* ``MultiArm-Pendulum`` (pendulum stage): a 55 s free decay of a single pendulum arm,
-  angle only (the authors' angular rate is denoised, i.e. derived, and not used).
+* ``kord-stk/LaTest.CSV`` (current stage): a locked-rotor DC motor's R-L current step.
+  The step time and level are not recorded, so they are estimated from the current
+  itself, first from plain statistics (``kord.first_step_estimate``) and then refined
+  together with ``T_i`` (:func:`fit_locked_rotor`).
+* ``MultiArm-Pendulum`` (pendulum stage): a 55 s free decay of a single pendulum arm.
 
 Independent checks do not use pendfmu's simulator or optimizer: an analytic exponential
 fit and the textbook log-linear fit for the R-L step; for the pendulum a work-energy
@@ -28,147 +26,39 @@ published inertia (:func:`period_ratio`).
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from scipy.integrate import trapezoid
 from scipy.optimize import least_squares, minimize
-from scipy.signal import medfilt, savgol_filter
-from scipy.stats import trim_mean
+from scipy.signal import medfilt
 
 from pendfmu.fitting.identification import fit
 from pendfmu.fitting.optimizer import GlobalOptions
-from pendfmu.recording import Recording, RecordingError, SignalInfo, quantize
+from pendfmu.recording import Recording, RecordingError, quantize
 from pendfmu.fitting.result import FitResult
 
-REALDATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "realdata"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "realdata"))
+import _common  # noqa: E402
+from _common import angular_rate, load_example, turning_points  # noqa: E402
 
+available = _common.available  # the tests' skip condition
+REALDATA = _common.REALDATA
 
-def available(*paths: Path) -> bool:
-    return all(p.is_file() for p in paths)
+kord = load_example("kord-stk")
+multiarm = load_example("MultiArm-Pendulum")
 
 
 # =========================================================================== kord-stk
 
-KORD_CSV = REALDATA / "kord-stk" / "LaTest.CSV"
-SHUNT_OHM = 0.05  # LaPlot.m: I = V / 0.05
-SCOPE_LSB_V = 3.125e-3  # Agilent 54621D, 8 bits on the chosen range (the file's values are multiples of it)
-CURRENT_LSB = SCOPE_LSB_V / SHUNT_OHM  # 62.5 mA: the current's quantization step
-PUBLISHED_L = 1.56e-4  # H, "commented out" in the project report
-PUBLISHED_R = 0.8  # ohm
-PUBLISHED_L_OVER_R = PUBLISHED_L / PUBLISHED_R  # 1.95e-4 s
-NEVER_BINDING_SLOPE = 1e7  # A/s: with T_i ~ 1e-4 s the slope limit would bind only for steps > 1000 A
-
-# An R-L step is the lag alone. The file has isolated spikes (one or two samples of up to
-# +-2 A, pickup from the switching) that are not part of the current; a 9-sample running
-# median (22.5 us, a few percent of the time constant) removes them for the *estimates*
-# of levels and times. The fit itself sees every raw sample.
-DESPIKE = 9
-
-
-@dataclass(frozen=True)
-class ScopeTrace:
-    path: Path
-    time: np.ndarray  # s, the scope's own time stamps
-    current: np.ndarray  # A, shunt voltage / SHUNT_OHM
-
-
-def read_scope_csv(path: Path = KORD_CSV) -> ScopeTrace:
-    """The scope's "CSV": two header lines ("x-axis 1" and "second Volt"), then time and
-    shunt voltage, separated by blanks (commas are accepted too). The units line is
-    checked so that a different export (other units, other channel) fails here rather
-    than producing a wrong time constant."""
-    with open(path, encoding="ascii") as f:
-        lines = [line.replace(",", " ") for line in f]
-    if lines[1].split() != ["second", "Volt"]:
-        raise RecordingError(f"{path}: expected the units line 'second Volt', got {lines[1].strip()!r}")
-    data = np.loadtxt(lines[2:], ndmin=2)
-    if data.shape[1] != 2:
-        raise RecordingError(f"{path}: expected 2 columns (time, volts), got {data.shape[1]}")
-    return ScopeTrace(Path(path), data[:, 0].copy(), data[:, 1] / SHUNT_OHM)
-
-
-@dataclass(frozen=True)
-class StepEstimate:
-    """The unrecorded command of the step: current before it, level after it, and when."""
-
-    baseline: float  # A, the current before the step (the scope's offset: no current flows)
-    level: float  # A, the final current I_final
-    t0: float  # s, the instant of the voltage step
-    noise: float  # A, standard deviation of the reading before the step (robust)
-
-
-def first_step_estimate(trace: ScopeTrace) -> StepEstimate:
-    """Levels and step time from plain statistics, before any fit.
-
-    * baseline: the mean of the samples before the step, trimmed 10 % each side (sub-LSB
-      resolution like a mean, but the spikes do not pull it);
-    * level: the same trimmed mean over the last 40 % of the record, where the current
-      has settled (checked: the despiked current stays within 5 % of the step there; the
-      rest of the record still creeps up by ~2 %, one reason the rise is not exactly one
-      exponential);
-    * t0: the last sample before the half-way crossing at which the despiked current is
-      still inside the baseline noise band (baseline + 3 sigma, sigma from the median
-      absolute deviation of the pre-step samples): where the current leaves the noise.
-
-    The pre-step samples are those before 80 % of the time from the record's start to the
-    half-way crossing, so that the rise itself never enters the baseline.
-    """
-    time, current = trace.time, trace.current
-    smooth = medfilt(current, DESPIKE)
-    n = len(time)
-    rough_low, rough_high = np.median(current[: n // 10]), np.median(current[-n // 10:])
-    half = int(np.argmax(smooth > 0.5 * (rough_low + rough_high)))
-    if half == 0 or rough_high - rough_low < 10 * CURRENT_LSB:
-        raise RecordingError(f"{trace.path}: no step of the current found")
-    pre = current[: int(0.8 * half)]
-    baseline = float(trim_mean(pre, 0.1))
-    noise = float(1.4826 * np.median(np.abs(pre - np.median(pre))))
-    noise = max(noise, CURRENT_LSB / math.sqrt(12))  # never below the quantization's own spread
-    tail = current[int(0.6 * n):]
-    level = float(trim_mean(tail, 0.1))
-    if np.any(np.abs(smooth[int(0.6 * n):] - level) > 0.05 * abs(level - baseline)):
-        raise RecordingError(f"{trace.path}: the current has not settled in the last 40 % of the record")
-    inside = np.nonzero(smooth[:half] <= baseline + 3 * noise)[0]
-    t0 = float(time[inside[-1]]) if len(inside) else float(time[0])
-    return StepEstimate(baseline, level, t0, noise)
-
-
-def step_command(time: np.ndarray, step: StepEstimate) -> np.ndarray:
-    """I_c for a step at `step.t0`, which may fall between samples.
-
-    The current stage holds I_c constant from one sample to the next. The sample whose
-    hold interval contains t0 gets the fraction of the step that the interval holds after
-    t0, so the command carries the same charge as a true step at t0; after that interval
-    the response differs from the true one by f(1-f)(dt/T_i)^2/2 relative, below 1e-5
-    here. This makes the cost a smooth function of t0 instead of a staircase."""
-    command = np.where(time >= step.t0, step.level, step.baseline).astype(float)
-    k = int(np.searchsorted(time, step.t0))  # first sample at or after t0
-    if 0 < k < len(time):
-        fraction = (time[k] - step.t0) / (time[k] - time[k - 1])
-        command[k - 1] = step.baseline + (step.level - step.baseline) * fraction
-    return command
-
-
-def current_step_recording(trace: ScopeTrace, step: StepEstimate) -> Recording:
-    """The trace as a current-stage Recording: the raw current I (every sample, spikes
-    included: the fit is an honest least-squares fit to what the scope recorded), the
-    reconstructed command I_c, the scope's quantization as I's resolution, the pre-step
-    noise as its noise, and the current before the step as the initial state."""
-    return Recording(
-        trace.path, trace.time, {"I_c": step_command(trace.time, step), "I": trace.current},
-        experiment="locked-rotor voltage step (R-L), command reconstructed",
-        signal_info={"I": SignalInfo(CURRENT_LSB, "round", step.noise)},
-        initial={"I": step.baseline})
-
-
-def fit_current_step(trace: ScopeTrace, step: StepEstimate, uncertainty: str = "bootstrap") -> FitResult:
+def fit_current_step(trace: kord.ScopeTrace, step: kord.StepEstimate, uncertainty: str = "bootstrap") -> FitResult:
     """pendfmu's current stage for a given command: T_i free, the slope limit fixed so
     high that it never binds (an R-L circuit has none). The start is the reference rig's
     T_i (0.3 ms), not the published L/R; the global search is off because one time
     constant in a one-decade box is a convex-looking 1-D problem for the local search."""
-    return fit("current", [current_step_recording(trace, step)], {"dIdt_max": NEVER_BINDING_SLOPE},
+    return fit("current", [kord.current_step_recording(trace, step)], {"dIdt_max": kord.NEVER_BINDING_SLOPE},
                fix=["dIdt_max"], global_search=GlobalOptions(enabled=False), progress=False,
                uncertainty=uncertainty)
 
@@ -176,30 +66,30 @@ def fit_current_step(trace: ScopeTrace, step: StepEstimate, uncertainty: str = "
 @dataclass
 class LockedRotorFit:
     result: FitResult  # pendfmu's fit of T_i at the refined step
-    step: StepEstimate  # refined t0 and level
-    first: StepEstimate  # the statistics-only estimate
+    step: kord.StepEstimate  # refined t0 and level
+    first: kord.StepEstimate  # the statistics-only estimate
     evaluations: int  # pendfmu fits run by the refinement
 
 
-def fit_locked_rotor(trace: ScopeTrace) -> LockedRotorFit:
+def fit_locked_rotor(trace: kord.ScopeTrace) -> LockedRotorFit:
     """T_i with the step's time and level refined by the same fit.
 
     The current stage cannot fit t0 and I_final: they are properties of the input I_c,
     not parameters of an FMU. They are refined instead by minimizing pendfmu's own
     least-squares cost over (t0, level), with T_i fitted by pendfmu at every point (a
-    profile likelihood), starting from :func:`first_step_estimate`. The baseline stays at
+    profile likelihood), starting from :func:`kord.first_step_estimate`. The baseline stays at
     its statistical estimate: 570 pre-step samples pin it to a few mA, and it is where
     the model's current starts. The result is the joint least-squares estimate of
     (t0, level, T_i) given the baseline; T_i's reported interval is conditional on the
     refined t0 and level.
     """
-    first = first_step_estimate(trace)
+    first = kord.first_step_estimate(trace)
     span = first.level - first.baseline
     dt = float(np.median(np.diff(trace.time)))
     count = [0]
 
-    def at(x) -> StepEstimate:
-        return StepEstimate(first.baseline, first.level + x[1] * span, first.t0 + x[0] * dt, first.noise)
+    def at(x) -> kord.StepEstimate:
+        return kord.StepEstimate(first.baseline, first.level + x[1] * span, first.t0 + x[0] * dt, first.noise)
 
     def cost(x) -> float:  # only the cost: no intervals needed on the way
         count[0] += 1
@@ -212,7 +102,7 @@ def fit_locked_rotor(trace: ScopeTrace) -> LockedRotorFit:
     return LockedRotorFit(fit_current_step(trace, step), step, first, count[0])
 
 
-def exponential_fit(trace: ScopeTrace, first: StepEstimate) -> tuple[float, float, float, float]:
+def exponential_fit(trace: kord.ScopeTrace, first: kord.StepEstimate) -> tuple[float, float, float, float]:
     """The same model fitted without pendfmu: I = b + (L - b)(1 - exp(-(t - t0)/tau)) for
     t > t0, with b fixed to the baseline and (L, t0, tau) free, plain least squares on
     the raw samples. Returns (tau, its standard error, t0, L). Agreement with pendfmu's
@@ -232,16 +122,16 @@ def exponential_fit(trace: ScopeTrace, first: StepEstimate) -> tuple[float, floa
     return float(r.x[2]), float(math.sqrt(covariance[2, 2])), float(r.x[1] + trace.time[0]), float(r.x[0])
 
 
-def log_linear_tau(trace: ScopeTrace, step: StepEstimate, upper: float = 0.9,
+def log_linear_tau(trace: kord.ScopeTrace, step: kord.StepEstimate, upper: float = 0.9,
                    lower: float = 0.1) -> tuple[float, float]:
     """The textbook estimate: ln(I_final - I) falls linearly with slope -1/tau. Fitted by
     ordinary least squares over the part of the rise where the remaining current
     I_final - I lies between `upper` and `lower` times the step (above: the start, where
     the step time matters; below: the tail, where a 62.5 mA quantization and the noise
     dominate the logarithm). Despiked current, I_final from the plateau statistics only
-    (first_step_estimate), so it shares no fitted quantity with pendfmu's fit. Returns
+    (kord.first_step_estimate), so it shares no fitted quantity with pendfmu's fit. Returns
     (tau, its standard error from the regression)."""
-    smooth = medfilt(trace.current, DESPIKE)
+    smooth = medfilt(trace.current, kord.DESPIKE)
     span = step.level - step.baseline
     remaining = step.level - smooth
     after = trace.time >= step.t0
@@ -259,119 +149,8 @@ def log_linear_tau(trace: ScopeTrace, step: StepEstimate, upper: float = 0.9,
     return float(tau), float(se_slope / slope**2)
 
 
+
 # =========================================================================== MultiArm
-
-MULTIARM_MAT = REALDATA / "MultiArm-Pendulum" / "SinglePendulumDataForParameterEstimation.mat"
-ENCODER_RESOLUTION = 2 * math.pi / 40000  # the rig's high-resolution encoder
-TEN_BIT = 2 * math.pi / 1024  # the paper's pendulum encoder (MODEL.md)
-# The authors' fit (EstimatedParameters_SinglePendulum.mat): viscous friction only.
-A1, M1, I1, G, K1 = 0.147755, 0.147585, 1.09119e-4, 9.81001, 2.23940e-4
-PUBLISHED_PENDULUM = {"l": A1, "m_p": M1, "J_p": I1 + M1 * A1**2, "g": G}  # J_p about the pivot
-PUBLISHED_K1 = K1
-MGL = M1 * G * A1
-
-
-def read_multiarm_decay(path: Path = MULTIARM_MAT) -> tuple[np.ndarray, np.ndarray]:
-    """Time and angle of the whole decay: the cells Y_id{1..4}, Y_vad{1..2} (row 0: the
-    angle, 0 upright, pi hanging: pendfmu's phi) with Time_id/Time_vad, concatenated.
-
-    SOURCE.txt says the six cells are consecutive chunks of one decay; this is checked,
-    not assumed: every time step, chunk boundaries included, must be the file's dt, and
-    the angle's jump across a boundary must be no larger than the largest jump inside a
-    chunk (a gap or a reordering would show as a jump).
-
-    The angles are not all multiples of 2 pi/40000: they sit on that grid where the
-    pendulum dwells on one count (at turning points) and are interpolated between count
-    changes elsewhere (the raw log was evidently resampled to 1 ms). The encoder's step
-    is still the right resolution: it bounds the reading's error."""
-    from scipy.io import loadmat
-
-    data = loadmat(path)
-    times = [np.ravel(c) for c in list(data["Time_id"].flat) + list(data["Time_vad"].flat)]
-    angles = [np.asarray(c)[0] for c in list(data["Y_id"].flat) + list(data["Y_vad"].flat)]
-    dt = float(np.ravel(data["dt"])[0])
-    inner = max(float(np.max(np.abs(np.diff(a)))) for a in angles)
-    for k in range(1, len(times)):
-        if abs(times[k][0] - times[k - 1][-1] - dt) > 1e-9 or abs(angles[k][0] - angles[k - 1][-1]) > inner:
-            raise RecordingError(f"{path}: chunk {k} does not continue chunk {k - 1}")
-    time, angle = np.concatenate(times), np.concatenate(angles)
-    if np.max(np.abs(np.diff(time) - dt)) > 1e-9:
-        raise RecordingError(f"{path}: time steps are not the file's dt = {dt}")
-    return time, angle
-
-
-def smoothing_window(resolution: float) -> int:
-    """Samples (odd) of the local cubic fit that gives the angular rate and locates turning
-    points. At a turning point the angle dwells on one reading for sqrt(2*delta/alpha):
-    with the 40000-count encoder a few ms, with 10 bits up to ~20 ms at small amplitudes
-    (alpha ~ 20 rad/s^2). The window must span several readings either side: 21 ms
-    resp. 101 ms, both short against the 0.78 s period (the cubic's bias on the rate of a
-    sinusoid over +-0.4 rad of phase is ~1e-3 relative)."""
-    return 21 if resolution < 1e-3 else 101
-
-
-def angular_rate(time: np.ndarray, phi: np.ndarray, window: int) -> np.ndarray:
-    return savgol_filter(phi, window, 3, deriv=1, delta=float(np.median(np.diff(time))))
-
-
-def turning_points(time: np.ndarray, phi: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
-    """Indices (the sample of smallest |rate| at each sign change of the smoothed rate)
-    and the extreme angles, refined by a parabola through the samples of one smoothing
-    window around each (the extreme usually falls between samples)."""
-    rate = angular_rate(time, phi, window)
-    change = np.nonzero(np.sign(rate[1:]) != np.sign(rate[:-1]))[0]
-    half = window // 2
-    indices, extremes = [], []
-    for i in change:
-        i = i if abs(rate[i]) <= abs(rate[i + 1]) else i + 1
-        if i < half or i + half >= len(phi):
-            continue
-        s = slice(i - half, i + half + 1)
-        c = np.polyfit(time[s] - time[i], phi[s], 2)
-        indices.append(i)
-        extremes.append(np.polyval(c, -c[1] / (2 * c[0])))
-    return np.array(indices), np.array(extremes)
-
-
-def decay_windows(path: Path, time: np.ndarray, phi: np.ndarray, resolution: float, starts: list[float],
-                  cycles: int) -> list[Recording]:
-    """Pendulum-stage Recordings: windows of `cycles` full swings, each from the first
-    turning point at or after each of `starts` to the turning point 2*cycles later, with
-    the resolution given.
-
-    Why windows: one 55 s output-error fit has to hold the phase of 70 swings, and the
-    published inertia and gravity torque make the model swing 0.11 % faster than the rig
-    (:func:`period_ratio`): over 55 s that is a tenth of a swing. Short windows spread
-    over the whole decay keep the phase error small while covering amplitudes from 1.6
-    to 0.3 rad, which is what separates viscous from Coulomb friction. It also bounds
-    the run time (14 s of simulated swing instead of 55 s per evaluation).
-
-    Why from turning point to turning point: the pendulum stage estimates the release
-    angle phi0 (a release from rest), and a window that ends at a turning point ends
-    where a phase error costs least and the amplitude, i.e. the energy lost, shows most.
-    The rate at the first sample is not exactly zero (the turning point falls between
-    samples): it is measured by the local cubic fit on the same (possibly re-quantized)
-    angle and given as the known initial state w, so only the angle is estimated, as the
-    stage intends. pendfmu cannot estimate w0 per recording (see the report).
-
-    Each window is named by its start time (a path that is not a file: pendfmu names
-    experiments by the path's stem).
-    """
-    window = smoothing_window(resolution)
-    rate = angular_rate(time, phi, window)
-    indices, _ = turning_points(time, phi, window)
-    recordings = []
-    for start in starts:
-        n = int(np.argmax(time[indices] >= start))
-        if not time[indices[-1]] >= start or n + 2 * cycles >= len(indices):
-            raise ValueError(f"a window of {cycles} cycles from {start} s runs past the end of the recording")
-        i, j = int(indices[n]), int(indices[n + 2 * cycles]) + 1
-        recordings.append(Recording(
-            path.with_name(f"{path.stem}_{time[i]:07.3f}s{path.suffix}"), time[i:j], {"phi": phi[i:j]},
-            experiment="free decay window from a turning point",
-            signal_info={"phi": SignalInfo(resolution)}, initial={"w": float(rate[i])}))
-    return recordings
-
 
 def fit_decay(recordings: list[Recording], free: tuple[str, ...] = ()) -> FitResult:
     """pendfmu's pendulum stage on the windows: k_fwp, T_Kp, T_Sp (and `free`) shared,
@@ -388,8 +167,8 @@ def fit_decay(recordings: list[Recording], free: tuple[str, ...] = ()) -> FitRes
     over 8 windows costs minutes."""
     bounds = {"k_fwp": (1e-6, 1e-2), "T_Kp": (1e-7, 1e-2)}
     if "J_p" in free:  # bounds are only for what is fitted (a name not fitted is an error)
-        bounds["J_p"] = (0.9 * PUBLISHED_PENDULUM["J_p"], 1.1 * PUBLISHED_PENDULUM["J_p"])
-    return fit("pendulum", recordings, PUBLISHED_PENDULUM, free=list(free), bounds=bounds,
+        bounds["J_p"] = (0.9 * multiarm.PUBLISHED_PENDULUM["J_p"], 1.1 * multiarm.PUBLISHED_PENDULUM["J_p"])
+    return fit("pendulum", recordings, multiarm.PUBLISHED_PENDULUM, free=list(free), bounds=bounds,
                global_search=GlobalOptions(enabled=False), progress=False, uncertainty="jacobian")
 
 
@@ -421,7 +200,7 @@ def decay_cycles(time: np.ndarray, phi: np.ndarray, window: int = 21) -> DecayCy
     for n in range(0, len(indices) - 2, 2):
         a, b = indices[n], indices[n + 2]
         w, t = np.abs(rate[a:b + 1]), time[a:b + 1]
-        rows.append((abs(extremes[n + 1] - math.pi), MGL * (math.cos(extremes[n]) - math.cos(extremes[n + 2])),
+        rows.append((abs(extremes[n + 1] - math.pi), multiarm.MGL * (math.cos(extremes[n]) - math.cos(extremes[n + 2])),
                      trapezoid(w, t), trapezoid(w**2, t), trapezoid(w**3, t)))
     return DecayCycles(*(np.array(column) for column in zip(*rows)))
 
@@ -503,10 +282,10 @@ def period_ratio(time: np.ndarray, phi: np.ndarray, window: int = 21) -> tuple[n
     instants = np.array(instants)
     amplitude = 0.25 * (np.abs(extremes[:-2] - math.pi) + 2 * np.abs(extremes[1:-1] - math.pi)
                         + np.abs(extremes[2:] - math.pi))
-    predicted = 4 * np.sqrt(PUBLISHED_PENDULUM["J_p"] / MGL) * ellipk(np.sin(amplitude / 2) ** 2)
+    predicted = 4 * np.sqrt(multiarm.PUBLISHED_PENDULUM["J_p"] / multiarm.MGL) * ellipk(np.sin(amplitude / 2) ** 2)
     return amplitude, (instants[2:] - instants[:-2]) / predicted
 
 
-def requantized(phi: np.ndarray, resolution: float = TEN_BIT) -> np.ndarray:
+def requantized(phi: np.ndarray, resolution: float = multiarm.TEN_BIT) -> np.ndarray:
     """What the paper's 10-bit encoder would have read of the same swing."""
     return quantize(phi, resolution)

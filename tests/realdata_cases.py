@@ -19,18 +19,15 @@ import json
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from pendfmu.components import parameter_table
-from pendfmu.parameters import write_parameters
-from pendfmu.recording import Recording, quantize
-from pendfmu.recording.writer import write_recording
+from pendfmu.recording import Recording
 
 import realdata as rd
 import realdata_rigs as rigs
+from _common import fit_arguments
 
 
 @dataclass(frozen=True)
@@ -48,72 +45,18 @@ class FitCase:
     def prepare(self, folder: Path) -> list[str]:
         """Write the recordings and the parameters file into `folder`; returns the
         command's arguments up to (not including) --out and --seed."""
-        folder.mkdir(parents=True, exist_ok=True)
-        recordings, params = self.build()
-        files = [str(write_recording(r, folder / f"{r.path.stem}.csv")) for r in recordings]
-        write_parameters(params, folder / "params.json")
-        return ["fit", self.stage, *files, "--params", str(folder / "params.json"), *self.options]
+        return fit_arguments(self.stage, *self.build(), self.options, folder)
 
 
-def _kord() -> tuple[list[Recording], dict[str, float]]:
-    """The R-L step with the command from plain statistics (realdata.first_step_estimate):
-    what a user can build without pendfmu's profile over the step's time and level.
-
-    The current is put back on the scope's 62.5 mA grid: the export scales the readings
-    by 1 + 1.5e-8 (+206.250003E-03 V for 66 LSB), up to 1.3e-6 LSB off the grid, and
-    pendfmu's plausibility check then warns that the stated resolution is too coarse."""
-    trace = rd.read_scope_csv()
-    recording = rd.current_step_recording(trace, rd.first_step_estimate(trace))
-    current = recording.signal("I")
-    snapped = quantize(current, rd.CURRENT_LSB)
-    assert np.max(np.abs(snapped - current)) < 1e-5 * rd.CURRENT_LSB  # the export's scaling, not a reading
-    return [replace(recording, signals={**recording.signals, "I": snapped})], {"dIdt_max": rd.NEVER_BINDING_SLOPE}
+def example_case(convert, build: Callable | None = None) -> FitCase:
+    """The case of an example's conversion (examples/realdata/<name>/convert.py): its
+    stage, sources, recordings and options, without the example's own run options."""
+    return FitCase(Path(convert.__file__).parent.name, convert.STAGE, convert.SOURCES, build or convert.build,
+                   convert.OPTIONS)
 
 
-MULTIARM_WINDOWS, MULTIARM_CYCLES = 8, 2  # as tests/test_realdata.py
-
-
-def _multiarm(count: int = MULTIARM_WINDOWS) -> Callable[[], tuple[list[Recording], dict[str, float]]]:
-    """The decay windows of realdata.decay_windows, `count` of them spread evenly over
-    the decay, with the published inertia and lengths."""
-    def build() -> tuple[list[Recording], dict[str, float]]:
-        time_, phi = rd.read_multiarm_decay()
-        starts = list(np.linspace(0.0, time_[-1] - 5.0, count))
-        windows = rd.decay_windows(rd.MULTIARM_MAT, time_, phi, rd.ENCODER_RESOLUTION, starts, MULTIARM_CYCLES)
-        return windows, dict(rd.PUBLISHED_PENDULUM)
-    return build
-
-
-def _carriage() -> tuple[list[Recording], dict[str, float]]:
-    scope = rigs.read_servo_scope()
-    return [rigs.carriage_recording(scope)], rigs.carriage_parameters(scope)
-
-
-def _furuta() -> tuple[list[Recording], dict[str, float]]:
-    return [rigs.furuta_recording()], rigs.furuta_parameters()
-
-
-def _emps() -> tuple[list[Recording], dict[str, float]]:
-    record = rigs.read_emps()
-    return [rigs.emps_recording(record)], rigs.emps_parameters(record)
-
-
-# The friction boxes of the pendulum cases are opened as realdata.fit_decay explains (the
-# default, a decade around the reference rig's values, excludes small pivots).
-PENDULUM_BOUNDS = ("k_fwp=1e-7:1e-2", "T_Kp=1e-7:1e-2")
-J_P_LOW = 1.001 * rigs.FURUTA_MASS * (rigs.FURUTA_LENGTH / 2) ** 2  # just above a point mass at l
-J_P_HIGH = 2 * rigs.FURUTA_ROD["J_p"]
-
-CASES = {
-    "kord-stk": FitCase("kord-stk", "current", (rd.KORD_CSV,), _kord, ("--fix", "dIdt_max")),
-    "MultiArm-Pendulum": FitCase("MultiArm-Pendulum", "pendulum", (rd.MULTIARM_MAT,), _multiarm(),
-                                 ("--bounds", *PENDULUM_BOUNDS)),
-    "friction-identification": FitCase("friction-identification", "cart", (rigs.CARRIAGE_MR, rigs.CARRIAGE_NI),
-                                       _carriage, ("--drive", "I")),
-    "rotary-inverted-pendulum": FitCase("rotary-inverted-pendulum", "pendulum", (rigs.FURUTA_TXT,), _furuta,
-                                        ("--free", "J_p", "--bounds", *PENDULUM_BOUNDS, f"J_p={J_P_LOW!r}:{J_P_HIGH!r}")),
-    "EMPS": FitCase("EMPS", "cart", (rigs.EMPS_MAT,), _emps, ("--drive", "I")),
-}
+CASES = {case.name: case for case in map(example_case, (rd.kord, rd.multiarm, rigs.carriage, rigs.furuta,
+                                                         rigs.emps))}
 
 
 @dataclass
@@ -280,5 +223,4 @@ def point_spread(runs: Sequence[Run]) -> dict[str, tuple[float, float]]:
 def multiarm_case(windows: int) -> FitCase:
     """The MultiArm fit on fewer windows: the same kind of fit at a fraction of the time
     (with 8 windows, 11 free values, one fit takes about 5 minutes on two cores)."""
-    return FitCase("MultiArm-Pendulum", "pendulum", (rd.MULTIARM_MAT,), _multiarm(windows),
-                   ("--bounds", *PENDULUM_BOUNDS))
+    return example_case(rd.multiarm, lambda: rd.multiarm.build(windows))

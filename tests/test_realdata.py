@@ -2,7 +2,7 @@
 estimates made from the same data without pendfmu.
 
 The recordings are third-party files under ``../shared/realdata`` whose licences allow
-internal testing only; the adapters in ``realdata.py`` read them in place, nothing is
+internal testing only; the conversions in ``examples/realdata/<name>/convert.py`` read them in place, nothing is
 copied into the repository, and every test here is skipped when a file is absent.
 
 Run time: about 25 s in all on two cores (the current fit ~1 s, each pendulum fit ~10 s).
@@ -29,7 +29,7 @@ import realdata as rd
 # --------------------------------------------------------------------------- kord-stk
 
 
-@pytest.mark.skipif(not rd.available(rd.KORD_CSV), reason=f"real data absent: {rd.KORD_CSV}")
+@pytest.mark.skipif(not rd.available(rd.kord.KORD_CSV), reason=f"real data absent: {rd.kord.KORD_CSV}")
 def test_locked_rotor_time_constant():
     """T_i of the R-L step against the published L/R and two independent estimates.
 
@@ -51,7 +51,7 @@ def test_locked_rotor_time_constant():
       Asserted as a disagreement: L/R lies outside T_i's 95 % interval and below every
       band's estimate.
     """
-    trace = rd.read_scope_csv()
+    trace = rd.kord.read_scope_csv()
     fitted = rd.fit_locked_rotor(trace)
     estimate = fitted.result.estimates["T_i"]
     T_i = estimate.value
@@ -72,30 +72,30 @@ def test_locked_rotor_time_constant():
     for band, (tau, se) in tau_log.items():
         print(f"  log-linear, remaining current {band[0]:.0%}..{band[1]:.0%}: "
               f"tau = {tau * 1e3:.4f} +- {se * 1e3:.4f} ms")
-    print(f"  published L/R = {rd.PUBLISHED_L_OVER_R * 1e3:.4f} ms; T_i / (L/R) = {T_i / rd.PUBLISHED_L_OVER_R:.3f}; "
-          f"L implied with R = 0.8 ohm: {T_i * rd.PUBLISHED_R * 1e3:.3f} mH, with R + shunt: "
-          f"{T_i * (rd.PUBLISHED_R + rd.SHUNT_OHM) * 1e3:.3f} mH")
+    print(f"  published L/R = {rd.kord.PUBLISHED_L_OVER_R * 1e3:.4f} ms; T_i / (L/R) = {T_i / rd.kord.PUBLISHED_L_OVER_R:.3f}; "
+          f"L implied with R = 0.8 ohm: {T_i * rd.kord.PUBLISHED_R * 1e3:.3f} mH, with R + shunt: "
+          f"{T_i * (rd.kord.PUBLISHED_R + rd.kord.SHUNT_OHM) * 1e3:.3f} mH")
 
     assert not fitted.result.failures
     assert T_i == pytest.approx(tau_exp, rel=0.01)
     assert abs(fitted.step.t0 - t0_exp) < 2.5e-6
-    assert abs(fitted.step.level - level_exp) < rd.CURRENT_LSB
+    assert abs(fitted.step.level - level_exp) < rd.kord.CURRENT_LSB
     assert low <= T_i <= high
     # the disagreement with the report's L/R
-    assert rd.PUBLISHED_L_OVER_R < estimate.ci95[0]
-    assert rd.PUBLISHED_L_OVER_R < low
+    assert rd.kord.PUBLISHED_L_OVER_R < estimate.ci95[0]
+    assert rd.kord.PUBLISHED_L_OVER_R < low
 
 
 # --------------------------------------------------------------------------- MultiArm
 
-multiarm = pytest.mark.skipif(not rd.available(rd.MULTIARM_MAT), reason=f"real data absent: {rd.MULTIARM_MAT}")
+multiarm = pytest.mark.skipif(not rd.available(rd.multiarm.MULTIARM_MAT), reason=f"real data absent: {rd.multiarm.MULTIARM_MAT}")
 WINDOWS = 8  # windows of ...
 CYCLES = 2  # ... two full swings each (about 1.7 s), spread evenly over the decay
 
 
 @pytest.fixture(scope="module")
 def decay():
-    time, phi = rd.read_multiarm_decay()
+    time, phi = rd.multiarm.read_multiarm_decay()
     starts = list(np.linspace(0.0, time[-1] - 5.0, WINDOWS))
     return time, phi, starts
 
@@ -109,14 +109,14 @@ def cycles(decay):
 @pytest.fixture(scope="module")
 def full_resolution(decay):
     time, phi, starts = decay
-    windows = rd.decay_windows(rd.MULTIARM_MAT, time, phi, rd.ENCODER_RESOLUTION, starts, CYCLES)
+    windows = rd.multiarm.decay_windows(rd.multiarm.MULTIARM_MAT, time, phi, rd.multiarm.ENCODER_RESOLUTION, starts, CYCLES)
     return windows, rd.fit_decay(windows)
 
 
 @pytest.fixture(scope="module")
 def ten_bit(decay):
     time, phi, starts = decay
-    windows = rd.decay_windows(rd.MULTIARM_MAT, time, rd.requantized(phi), rd.TEN_BIT, starts, CYCLES)
+    windows = rd.multiarm.decay_windows(rd.multiarm.MULTIARM_MAT, time, rd.requantized(phi), rd.multiarm.TEN_BIT, starts, CYCLES)
     return windows, rd.fit_decay(windows)
 
 
@@ -148,7 +148,7 @@ def report_fit(label: str, windows, result, cycles) -> float:
     print(f"\n{label}: {len(windows)} windows from {', '.join(f'{w.time[0]:.2f}' for w in windows)} s, "
           f"{result.nfev} simulations in {result.seconds:.1f} s")
     print(f"  k_fwp = {k.value:.4e} N m s, 95 % [{k.ci95[0]:.4e}, {k.ci95[1]:.4e}]  "
-          f"(published k1 {rd.PUBLISHED_K1:.4e})")
+          f"(published k1 {rd.multiarm.PUBLISHED_K1:.4e})")
     print(f"  T_Kp  = {T_K.value:.4e} N m,   95 % [{T_K.ci95[0]:.4e}, {T_K.ci95[1]:.4e}]")
     print(f"  T_Sp  : {T_S.flags[0] if T_S.flags else T_S.value}")
     print(f"  flags: {result.flags}")
@@ -179,7 +179,7 @@ def test_decay_energy_balance_against_published(decay, cycles):
     both = rd.energy_balance(cycles, ("k", "T_K"))
     drag = rd.energy_balance(cycles, ("T_K", "c_q"))
     spread, laws = rd.weighting_spread(cycles)
-    published = rd.equivalent_viscous(cycles, rd.PUBLISHED_K1, 0.0)
+    published = rd.equivalent_viscous(cycles, rd.multiarm.PUBLISHED_K1, 0.0)
     print(f"\nMultiArm decay: {len(time)} samples over {time[-1]:.3f} s, {len(cycles.loss)} full cycles, "
           f"amplitude {cycles.amplitude.max():.3f} -> {cycles.amplitude.min():.3f} rad")
     print(f"  period measured / rigid pendulum with published J_p, m g l: {ratio.mean():.5f} "
@@ -195,7 +195,7 @@ def test_decay_energy_balance_against_published(decay, cycles):
           f"(at amplitude {cycles.amplitude[np.argmin(keq)]:.2f} resp. {cycles.amplitude[np.argmax(keq)]:.2f} rad)")
     for p, k, T_K, relative in laws:
         print(f"  weighting amplitude^{p:+d}: k = {k:.3e}, T_K = {T_K:+.3e}, dissipation {relative:+.1%}")
-    print(f"  published k1 = {rd.PUBLISHED_K1:.4e}: dissipation {published / viscous['k'][0] - 1:+.1%} "
+    print(f"  published k1 = {rd.multiarm.PUBLISHED_K1:.4e}: dissipation {published / viscous['k'][0] - 1:+.1%} "
           f"against the rig's")
 
     assert abs(1 / ratio.mean() ** 2 - 1) < 0.005
@@ -218,7 +218,7 @@ def test_pendulum_fit_full_resolution(full_resolution, cycles):
     windows, result = full_resolution
     equivalent = report_fit("pendulum, encoder resolution 2 pi/40000", windows, result, cycles)
     reference = rd.energy_balance(cycles, ("k",))["k"][0]
-    tolerance, spread, start = dissipation_tolerance(cycles, windows, rd.ENCODER_RESOLUTION)
+    tolerance, spread, start = dissipation_tolerance(cycles, windows, rd.multiarm.ENCODER_RESOLUTION)
     print(f"  against the energy balance {reference:.4e}: {equivalent / reference - 1:+.1%} "
           f"(tolerance {tolerance:.1%} = friction law {spread:.1%} + start angles {start:.1%})")
     assert not result.failures
@@ -240,7 +240,7 @@ def test_pendulum_fit_ten_bit(ten_bit, full_resolution, cycles):
     windows, result = ten_bit
     equivalent = report_fit("pendulum, re-quantized to 10 bits", windows, result, cycles)
     reference = rd.energy_balance(cycles, ("k",))["k"][0]
-    tolerance, spread, start = dissipation_tolerance(cycles, windows, rd.TEN_BIT)
+    tolerance, spread, start = dissipation_tolerance(cycles, windows, rd.multiarm.TEN_BIT)
     full = rd.equivalent_viscous(cycles, full_resolution[1].estimates["k_fwp"].value,
                                  full_resolution[1].estimates["T_Kp"].value)
     print(f"  against the energy balance {reference:.4e}: {equivalent / reference - 1:+.1%} "
