@@ -51,6 +51,20 @@ def test_run_names_the_missing_file_and_exits_2(tmp_path, name):
     assert not (tmp_path / "out" / "result.json").exists()
 
 
+def test_run_started_by_any_python3_uses_the_projects_interpreter(tmp_path):
+    """`run OUTDIR` as a user types it: the first python3 on PATH (here a bare interpreter
+    without pendfmu's dependencies, where the machine has one) hands over to the project's
+    .venv; the run then gets as far as the missing data (exit 2, the file named)."""
+    import shutil
+
+    bare = shutil.which("python3", path=os.defpath) or sys.executable
+    absent = tmp_path / "nowhere"
+    done = subprocess.run([bare, str(EXAMPLES / "kord-stk" / "run"), str(tmp_path / "out")], capture_output=True,
+                          text=True, env={**os.environ, "PENDFMU_REALDATA": str(absent)}, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert str(absent / "kord-stk") in done.stderr, done.stderr
+
+
 def test_run_refuses_an_outdir_git_could_commit(tmp_path):
     """The converted data are derived from files licensed for internal testing only: an
     OUTDIR inside the repository (other than the git-ignored out/) is refused, exit 2."""

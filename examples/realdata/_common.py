@@ -21,8 +21,30 @@ import shlex
 import sys
 from pathlib import Path
 
-import numpy as np
-from scipy.signal import savgol_filter
+
+def _use_the_project_interpreter() -> None:
+    """A `run` is started by the first python3 on PATH, which may not have pendfmu's
+    dependencies: they live in the project's .venv (made by `make demo` or `make test`).
+    Switch to that interpreter, or say how to get one (exit 2), instead of an ImportError."""
+    try:
+        import fmpy  # noqa: F401
+        import scipy  # noqa: F401
+        return
+    except ImportError:
+        pass
+    venv = Path(__file__).resolve().parents[2] / ".venv"
+    python = venv / "bin" / "python"
+    if python.exists() and Path(sys.prefix).resolve() != venv.resolve():
+        os.execv(str(python), [str(python), *sys.argv])
+    print(f"{sys.argv[0]}: pendfmu's dependencies are not installed for {sys.executable}; `make test` makes "
+          f"the project's .venv, which this script then uses", file=sys.stderr)
+    sys.exit(2)
+
+
+_use_the_project_interpreter()
+
+import numpy as np  # noqa: E402
+from scipy.signal import savgol_filter  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
