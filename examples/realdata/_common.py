@@ -26,12 +26,8 @@ def _use_the_project_interpreter() -> None:
     """A `run` is started by the first python3 on PATH, which may not have pendfmu's
     dependencies: they live in the project's .venv (made by `make demo` or `make test`).
     Switch to that interpreter, or say how to get one (exit 2), instead of an ImportError."""
-    try:
-        import fmpy  # noqa: F401
-        import scipy  # noqa: F401
+    if all(importlib.util.find_spec(module) for module in ("fmpy", "scipy", "numpy")):
         return
-    except ImportError:
-        pass
     venv = Path(__file__).resolve().parents[2] / ".venv"
     python = venv / "bin" / "python"
     if python.exists() and Path(sys.prefix).resolve() != venv.resolve():
