@@ -155,6 +155,16 @@ CART = Component(
         _param("k_fwc", 30.0, "N.s/m", "Viscous friction coefficient of the cart", low=0.0),
         _param("F_Kc", 8.0, "N", "Coulomb (kinetic) friction force of the cart", low=0.0),
         _param("F_Sc", 12.0, "N", "Stiction (maximum static friction) force of the cart", low=0.0),
+        _param("v_Sc", 0.0, "m/s",
+               "Stribeck speed of the cart: sliding friction falls from F_Sc to F_Kc as exp(-(v/v_Sc)^2) "
+               "(0: no Stribeck effect)", low=0.0),
+        _param("dk_fwc", 0.0, "N.s/m",
+               "Direction asymmetry of the cart's viscous friction: k_fwc + dk_fwc for v > 0, k_fwc - dk_fwc "
+               "for v < 0"),
+        _param("dF_Kc", 0.0, "N",
+               "Direction asymmetry of the cart's Coulomb friction: F_Kc + dF_Kc for v > 0, F_Kc - dF_Kc "
+               "for v < 0"),
+        _param("F_Oc", 0.0, "N", "Constant offset force on the cart along +x (cable drag, a tilted track)"),
         _param("x0", 0.0, "m", "Initial position"),
         _param("v0", 0.0, "m/s", "Initial speed"),
         _solver_step(),

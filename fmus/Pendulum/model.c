@@ -14,7 +14,7 @@
 #include "trig_memo.h"
 
 static Friction friction(const Instance *inst) {
-    const Friction f = {R(k_fwp), R(T_Kp), R(T_Sp)};
+    const Friction f = {R(k_fwp), R(T_Kp), R(T_Sp), 0.0, 0.0, 0.0, 0.0, 0.0};
     return f;
 }
 
