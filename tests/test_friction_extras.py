@@ -32,13 +32,17 @@ from scipy.optimize import brentq
 import reference_rig as rr
 from fig3 import PARAMETERS as FIG3, force, force_derivatives
 from friction_golden import GOLDEN, fingerprint, golden_runs
-from modelica_runs import LOOSE, edge_time_error, fmu_edges, modelica_edges, simulate
-from pendfmu.components import CART
+from modelica_runs import LOOSE, TIGHT, at_times, edge_time_error, fmu_edges, modelica_edges, simulate
+from pendfmu.components import CART, PENDULUM
 from pendfmu.simulator import ComponentFMU
 
 EDGE_TOL = 1e-9
 X_TOL = 1e-9
 V_TOL = 2e-9
+# Pendulum decay (below): measured 1.5e-12 s, phi 2.6e-12 rad, w 1.3e-11 rad/s, the same with
+# and without the extras; 20x those.
+PEND_EDGE_TOL = 3e-11
+PEND_TOL = 3e-10
 
 # Reference rig: F_A = eta k_M k_D I = 15.08 N per ampere; M = m_c + m_p with the pendulum removed.
 GAIN = 0.4 * 0.06 * 628.3
@@ -221,3 +225,116 @@ def test_modelica_cart_with_extras_matches_the_fmu(case, bench):
     on_grid = np.isin(np.round(grid, 9), np.round(fmu["time"], 9))
     x = np.interp(fmu["time"], grid[on_grid], np.asarray(tight["cart.x"])[on_grid])
     assert np.max(np.abs(x - fmu["x"])) < 1e-6 * np.ptp(fmu["x"])
+
+
+# ---------------------------------------------------------------- the pendulum's extras
+
+PENDULUM_CASES = {
+    "Stribeck": {"w_Sp": 0.3},
+    "asymmetric": {"dk_fwp": 5e-4, "dT_Kp": 5e-4},
+    "offset": {"T_Op": 0.01},
+    "drag": {"k_dp": 2e-4},
+    "all": {"w_Sp": 0.3, "dk_fwp": 5e-4, "dT_Kp": 5e-4, "T_Op": 0.01, "k_dp": 2e-4},
+}
+DECAY_PHI0 = math.pi + 0.5
+
+
+def decay_fmu(extra: dict, stop: float = 10.0) -> dict[str, np.ndarray]:
+    times = np.linspace(0.0, stop, int(round(stop / 1e-3)) + 1)
+    with ComponentFMU("Pendulum", {"phi0": DECAY_PHI0, **extra}) as pendulum:
+        return pendulum.run(times, ["phi", "w", "alpha", "mode", "t_mode"], inputs=lambda t: {"a": 0.0})
+
+
+def test_pendulum_defaults_are_off():
+    for name in ("w_Sp", "dk_fwp", "dT_Kp", "T_Op", "k_dp"):
+        assert PENDULUM.variable(name).start == 0.0
+        assert rr.DEFAULTS[name] == 0.0
+
+
+@pytest.mark.parametrize("case", sorted(PENDULUM_CASES))
+def test_pendulum_with_extras_matches_the_reference(case):
+    """Free decay from 0.5 rad, 10 s, every turning point a mode change; the reference
+    (DOP853, rtol 1e-10) against the FMU (RK4 at 1e-4 s). Measured with and without the
+    extras: edges within 1.5e-12 s, phi within 2.6e-12 rad, w within 1.3e-11 rad/s; the
+    limits are 20x those."""
+    extra = PENDULUM_CASES[case]
+    fmu = decay_fmu(extra)
+    reference = rr.simulate_pendulum(extra, 0.0, fmu["time"], phi0=DECAY_PHI0)
+    # the reference lists the start (rest -> sliding at t = 0) as an event; the FMU starts sliding
+    reference_edges = [(e.time, e.old, e.new) for e in reference.attrs["events"] if e.time > 0]
+    assert len(reference_edges) >= 10
+    assert edge_time_error(reference_edges, fmu_edges(fmu)) < PEND_EDGE_TOL
+    assert np.max(np.abs(fmu["phi"] - reference["phi"].to_numpy())) < PEND_TOL
+    assert np.max(np.abs(fmu["w"] - reference["w"].to_numpy())) < PEND_TOL
+
+
+def test_each_pendulum_extra_changes_the_motion():
+    plain = decay_fmu({}, stop=5.0)
+    for case, extra in PENDULUM_CASES.items():
+        # the smallest, Stribeck's, is 5.7e-4 rad: 2e5 times the FMU-vs-reference difference
+        assert np.max(np.abs(decay_fmu(extra, stop=5.0)["phi"] - plain["phi"])) > 2e-4, case
+
+
+def test_quadratic_drag_alone_follows_the_closed_form():
+    """Without gravity and other friction J dw/dt = -k_dp w |w|, so w = w0 / (1 + k_dp w0 t / J)
+    and phi = phi0 + (J / k_dp) ln(1 + k_dp w0 t / J)."""
+    w0, k_dp = 5.0, 1e-3
+    J = 4.0 / 3.0 * 0.2 * 0.3**2
+    p = {"g": 0.0, "k_fwp": 0.0, "T_Kp": 0.0, "T_Sp": 0.0, "k_dp": k_dp, "w0": w0, "phi0": 0.0}
+    times = np.linspace(0.0, 5.0, 501)
+    with ComponentFMU("Pendulum", p) as pendulum:
+        result = pendulum.run(times, ["phi", "w"], inputs=lambda t: {"a": 0.0})
+    growth = 1 + k_dp * w0 * times / J
+    np.testing.assert_allclose(result["w"], w0 / growth, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(result["phi"], J / k_dp * np.log(growth), rtol=1e-12, atol=1e-13)
+
+
+def test_offset_torque_moves_the_rest_angle():
+    """Without Coulomb friction and stiction a constant torque T_Op holds the pendulum where
+    m_p l g sin(phi) + T_Op = 0: phi = pi + asin(T_Op / (m_p l g)). Damping ratio 0.36, so
+    after 30 s the swing has decayed to e^-60; 3e5 RK4 steps leave rounding of ~1e-12 rad."""
+    T_Op = 0.1
+    p = {"T_Kp": 0.0, "T_Sp": 0.0, "k_fwp": 0.1, "T_Op": T_Op}
+    with ComponentFMU("Pendulum", p) as pendulum:
+        result = pendulum.run(np.linspace(0.0, 30.0, 301), ["phi", "w"], inputs=lambda t: {"a": 0.0})
+    assert result["phi"][-1] == pytest.approx(math.pi + math.asin(T_Op / (0.2 * 0.3 * 9.81)), abs=1e-11)
+    assert abs(result["w"][-1]) < 1e-11  # rounding only (measured 1.6e-12 rad/s)
+
+
+@pytest.mark.parametrize("T_Op, mode", [(3e-3, 0), (-3e-3, 0), (5e-3, 1), (-5e-3, -1)])
+def test_pendulum_stick_condition_uses_the_offset(T_Op, mode):
+    """Hanging at rest the active torque is 0: stiction (T_Sp = 4e-3 N.m) holds an offset
+    below it, and a larger one turns the pendulum from the start."""
+    with ComponentFMU("Pendulum", {"T_Op": T_Op}) as pendulum:
+        result = pendulum.run(np.linspace(0.0, 0.2, 21), ["phi", "mode", "T_F"], inputs=lambda t: {"a": 0.0})
+    assert result["mode"][0] == mode
+    if mode == 0:
+        assert np.all(result["phi"] == math.pi)
+        # stiction holds T_A + T_Op; T_A = m_p l g sin(pi) = 7e-17 N.m, pi being rounded
+        np.testing.assert_allclose(result["T_F"], T_Op, rtol=0, atol=1e-16)
+    else:
+        assert mode * (result["phi"][-1] - math.pi) > 1e-4
+
+
+@pytest.mark.parametrize("name, value", [("dk_fwp", 2e-3), ("dT_Kp", -3e-3), ("w_Sp", -1.0), ("k_dp", -1e-4)])
+def test_pendulum_extras_out_of_range_are_refused(name, value):
+    with pytest.raises(Exception, match=name):
+        with ComponentFMU("Pendulum", {name: value}):
+            pass
+
+
+def test_modelica_pendulum_with_extras_matches_the_fmu():
+    """tests/modelica/PendulumFrictionExtras.mo (every pendulum extra on, free decay from
+    0.5 rad) against the FMU, as test_modelica_behaviour compares the plain pendulum: phi
+    within 1e-6 of its range, edges within 1e-6 s, and both differences grow when rumoca's
+    tolerance does."""
+    fmu = decay_fmu(PENDULUM_CASES["all"])
+    errors = {}
+    for config in (TIGHT, LOOSE):
+        result = simulate("PendulumFrictionExtras", 10.0, 1e-3, config=config)
+        phi = at_times(result, ["pendulum.phi"], fmu["time"])["pendulum.phi"]
+        errors[config is TIGHT] = (float(np.max(np.abs(phi - fmu["phi"]))),
+                                   edge_time_error(modelica_edges(result, "pendulum.mode"), fmu_edges(fmu)))
+    (phi_error, edge_error), (phi_loose, edge_loose) = errors[True], errors[False]
+    assert phi_error < 1e-6 * np.ptp(fmu["phi"]) and edge_error < 1e-6
+    assert phi_loose > 10 * phi_error and edge_loose > 10 * edge_error
