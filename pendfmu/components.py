@@ -115,6 +115,23 @@ def _t_mode():
                     "Time of the last mode change (located to 1e-12 s in Co-Simulation)")
 
 
+def _friction_extras(joint, *, speed, viscous, coulomb, stiction, names):
+    """A joint's optional friction terms beyond MODEL.md (docs-friction-extras.md): the
+    Stribeck speed and the direction asymmetries of the viscous and Coulomb terms. Each is 0
+    by default, which switches it off: the paper's law stays exact. `speed`, `viscous` and
+    `coulomb` are (name, unit) pairs of the joint's variables; `names` the three new ones."""
+    (w, w_unit), (k, k_unit), (F_K, F_unit) = speed, viscous, coulomb
+    v_S, dk, dF = names
+    return (
+        _param(v_S, 0.0, w_unit, f"Stribeck speed of {joint}: sliding friction falls from {stiction} to {F_K} as "
+                                 f"exp(-({w}/{v_S})^2) (0: no Stribeck effect)", low=0.0),
+        _param(dk, 0.0, k_unit, f"Direction asymmetry of {joint}'s viscous friction: {k} + {dk} for {w} > 0, "
+                                f"{k} - {dk} for {w} < 0"),
+        _param(dF, 0.0, F_unit, f"Direction asymmetry of {joint}'s Coulomb friction: {F_K} + {dF} for {w} > 0, "
+                                f"{F_K} - {dF} for {w} < 0"),
+    )
+
+
 CURRENT_LOOP = Component(
     name="CurrentLoop",
     description="Current control loop of the DC motor: slope-limited first-order lag plus PWM ripple (paper Eq. 1)",
@@ -155,6 +172,9 @@ CART = Component(
         _param("k_fwc", 30.0, "N.s/m", "Viscous friction coefficient of the cart", low=0.0),
         _param("F_Kc", 8.0, "N", "Coulomb (kinetic) friction force of the cart", low=0.0),
         _param("F_Sc", 12.0, "N", "Stiction (maximum static friction) force of the cart", low=0.0),
+        *_friction_extras("the cart", speed=("v", "m/s"), viscous=("k_fwc", "N.s/m"), coulomb=("F_Kc", "N"),
+                          stiction="F_Sc", names=("v_Sc", "dk_fwc", "dF_Kc")),
+        _param("F_Oc", 0.0, "N", "Constant offset force on the cart along +x (cable drag, a tilted track)"),
         _param("x0", 0.0, "m", "Initial position"),
         _param("v0", 0.0, "m/s", "Initial speed"),
         _solver_step(),
@@ -191,6 +211,10 @@ PENDULUM = Component(
         _param("k_fwp", 1e-3, "N.m.s", "Viscous friction coefficient of the pivot", low=0.0),
         _param("T_Kp", 2e-3, "N.m", "Coulomb (kinetic) friction torque of the pivot", low=0.0),
         _param("T_Sp", 4e-3, "N.m", "Stiction (maximum static friction) torque of the pivot", low=0.0),
+        *_friction_extras("the pivot", speed=("w", "rad/s"), viscous=("k_fwp", "N.m.s"), coulomb=("T_Kp", "N.m"),
+                          stiction="T_Sp", names=("w_Sp", "dk_fwp", "dT_Kp")),
+        _param("T_Op", 0.0, "N.m", "Constant offset torque on the pendulum towards +phi (a cable, a spring's preload)"),
+        _param("k_dp", 0.0, "N.m.s2", "Quadratic air drag of the pendulum: drag torque k_dp*w*|w|", low=0.0),
         _param("phi0", math.pi, "rad", "Initial angle from the upward vertical (hanging: pi)"),
         _param("w0", 0.0, "rad/s", "Initial angular speed"),
         _solver_step(),

@@ -25,6 +25,13 @@ Friction (each joint; speed s, active force F):
                stuck:   s = 0, acceleration = 0, the joint holds any |F| <= threshold
                threshold = max(F_S, F_K)   (with F_S < F_K the joint cannot move before
                |F| > F_K: it would decelerate at once and stop again)
+Friction extras (docs-friction-extras.md; all 0 = off, the paper's law above):
+               an offset F_O (F_Oc, T_Op) acts beside F: the joint sees F_N = F + F_O,
+               in the equation of motion and in the stick test;
+               in direction d = mode the viscous coefficient is k_fw + d*dk_fw and the
+               Coulomb level F_K(d) = F_K + d*dF_K; Stribeck (v_S > 0) adds
+               d*(F_S - F_K(d))*exp(-(s/v_S)^2); quadratic drag adds drag*s*|s|;
+               stuck while -max(F_S, F_K(-1)) <= F_N <= max(F_S, F_K(+1))
 
 Modes and events
 ----------------
@@ -107,6 +114,9 @@ DEFAULTS: dict[str, float] = dict(
     k_fwc=30.0, F_Kc=8.0, F_Sc=12.0,
     # pendulum
     J_p=0.0, g=9.81, k_fwp=1e-3, T_Kp=2e-3, T_Sp=4e-3,
+    # friction extras, all off (docs-friction-extras.md)
+    v_Sc=0.0, dk_fwc=0.0, dF_Kc=0.0, F_Oc=0.0,
+    w_Sp=0.0, dk_fwp=0.0, dT_Kp=0.0, T_Op=0.0, k_dp=0.0,
 )
 #: Initial states (x0, v0 are Cart parameters, phi0, w0 Pendulum ones in MODEL.md).
 INITIAL_DEFAULTS: dict[str, float] = dict(x0=0.0, v0=0.0, phi0=math.pi, w0=0.0, I0=0.0)
@@ -226,17 +236,36 @@ def _backdrive(eta: float) -> float:
 
 
 class _Joint:
-    """Friction law of one joint (cart: k_fwc, F_Kc, F_Sc; pendulum: k_fwp, T_Kp, T_Sp)."""
+    """Friction law of one joint (cart: k_fwc, F_Kc, F_Sc; pendulum: k_fwp, T_Kp, T_Sp),
+    with the extras: Stribeck speed v_S, asymmetries dk_fw and dF_K, offset F_O, drag."""
 
-    def __init__(self, k_fw: float, F_K: float, F_S: float):
-        if F_K < 0 or F_S < 0:
-            raise ValueError("friction levels must be >= 0")
+    def __init__(self, k_fw: float, F_K: float, F_S: float, *, v_S: float = 0.0, dk_fw: float = 0.0,
+                 dF_K: float = 0.0, F_O: float = 0.0, drag: float = 0.0):
+        if F_K < 0 or F_S < 0 or abs(dF_K) > F_K or abs(dk_fw) > k_fw or v_S < 0:
+            raise ValueError("friction levels must be >= 0 in both directions, v_S >= 0")
         self.k_fw, self.F_K, self.F_S = k_fw, F_K, F_S
-        self.thr = max(F_S, F_K)
-        self.coulomb = self.thr > 0  # without it the joint has no stuck mode, no events
+        self.v_S, self.dk_fw, self.dF_K, self.F_O, self.drag = v_S, dk_fw, dF_K, F_O, drag
+        self.coulomb = max(self.threshold(1), self.threshold(-1)) > 0  # else no stuck mode, no events
+
+    def kinetic(self, direction: int) -> float:
+        """The Coulomb level of a direction of motion."""
+        return self.F_K + direction * self.dF_K
+
+    def threshold(self, direction: int) -> float:
+        """The net force a joint at rest holds before it slides in ``direction``."""
+        return max(self.F_S, self.kinetic(direction))
+
+    def holds(self, net: float) -> bool:
+        """Whether the net force (active force plus offset) leaves a joint at rest."""
+        return -self.threshold(-1) <= net <= self.threshold(1)
 
     def sliding(self, speed: float, mode: int) -> float:
-        return self.k_fw * speed + self.F_K * mode
+        # A joint without stuck mode keeps mode +1; its direction is its speed's sign.
+        d = mode if self.coulomb else _sgn(speed)
+        force = (self.k_fw + d * self.dk_fw) * speed + self.kinetic(d) * mode
+        if self.v_S > 0:
+            force += mode * (self.F_S - self.kinetic(d)) * math.exp(-(speed / self.v_S) ** 2)
+        return force + self.drag * speed * abs(speed)
 
 
 def _sgn(x: float) -> int:
@@ -267,8 +296,10 @@ class _Rig:
         self.ml = p["m_p"] * p["l"]
         self.A = _backdrive(p["eta"])
         self.kF = p["eta"] * p["k_M"] * p["k_D"]  # drive force per ampere, after eta
-        self.cj = _Joint(p["k_fwc"], p["F_Kc"], p["F_Sc"])
-        self.pj = _Joint(p["k_fwp"], p["T_Kp"], p["T_Sp"])
+        self.cj = _Joint(p["k_fwc"], p["F_Kc"], p["F_Sc"], v_S=p["v_Sc"], dk_fw=p["dk_fwc"],
+                         dF_K=p["dF_Kc"], F_O=p["F_Oc"])
+        self.pj = _Joint(p["k_fwp"], p["T_Kp"], p["T_Sp"], v_S=p["w_Sp"], dk_fw=p["dk_fwp"],
+                         dF_K=p["dT_Kp"], F_O=p["T_Op"], drag=p["k_dp"])
         self.cart_modal = cart == "dynamic" and self.cj.coulomb
         self.pend_modal = pend == "dynamic" and self.pj.coulomb
         if cart == "dynamic" and not self.M > 0:
@@ -301,28 +332,29 @@ class _Rig:
             a = u.a(t)
             F_A = math.nan
             T_A = ml * (p["g"] * s - a * c)
-            alpha = 0.0 if mp == 0 else (T_A - self.pj.sliding(w, mp)) / self.J
+            alpha = 0.0 if mp == 0 else (T_A + self.pj.F_O - self.pj.sliding(w, mp)) / self.J
         elif self.pend == "given":
             alpha = alpha_in
             F_A = self.kF * I_force + A * ml * (w * w * s - alpha * c)
-            a = 0.0 if mc == 0 else (F_A - self.cj.sliding(v, mc)) / self.M
+            a = 0.0 if mc == 0 else (F_A + self.cj.F_O - self.cj.sliding(v, mc)) / self.M
             T_A = ml * (p["g"] * s - a * c)  # what the cart would exert on the pendulum
         else:
             F0 = self.kF * I_force + A * ml * w * w * s  # cart active force without the alpha term
             Tg = ml * p["g"] * s                   # pendulum active torque without the a term
+            F0n, Tgn = F0 + self.cj.F_O, Tg + self.pj.F_O  # with the offsets: what the joints feel
             if mc != 0 and mp != 0:                # both sliding: the coupled 2x2 system
-                b1 = F0 - self.cj.sliding(v, mc)
-                b2 = Tg - self.pj.sliding(w, mp)
+                b1 = F0n - self.cj.sliding(v, mc)
+                b2 = Tgn - self.pj.sliding(w, mp)
                 m12, m21 = A * ml * c, ml * c
                 det = self.M * self.J - m12 * m21
                 a = (self.J * b1 - m12 * b2) / det
                 alpha = (self.M * b2 - m21 * b1) / det
             elif mc != 0:                          # pendulum stuck: w = alpha = 0
                 alpha = 0.0
-                a = (F0 - self.cj.sliding(v, mc)) / self.M
+                a = (F0n - self.cj.sliding(v, mc)) / self.M
             elif mp != 0:                          # cart stuck: a = 0
                 a = 0.0
-                alpha = (Tg - self.pj.sliding(w, mp)) / self.J
+                alpha = (Tgn - self.pj.sliding(w, mp)) / self.J
             else:
                 a = alpha = 0.0
             F_A = F0 - A * ml * c * alpha
@@ -354,16 +386,19 @@ class _Rig:
                 mk(lambda t, y: u.Ic(t) - y[0] + D, -1, ("current", "slew", -1))
             else:
                 mk(lambda t, y, m=mI: u.Ic(t) - y[0] - m * D, -mI, ("current", "lin", 0))
-        # joint, modal?, mode, its speed in y, its active force in eval(), stiction threshold
-        joints = (("cart", self.cart_modal, mc, 2, 4, self.cj.thr), ("pendulum", self.pend_modal, mp, 4, 5, self.pj.thr))
-        for name, modal, mode, speed, force, thr in joints:
+        # joint, modal?, mode, its speed in y, its active force in eval(), its friction law
+        joints = (("cart", self.cart_modal, mc, 2, 4, self.cj), ("pendulum", self.pend_modal, mp, 4, 5, self.pj))
+        for name, modal, mode, speed, force, jt in joints:
             if not modal:
                 continue
             if mode != 0:
                 mk(lambda t, y, i=speed: y[i], -mode, (name, "stop", None))
-            else:
-                mk(lambda t, y, i=force, thr=thr: abs(self.eval(t, y.tolist(), modes, u)[i]) - thr, +1,
-                   (name, "break", None))
+                continue
+            # Breakaway either way: the net force (active plus offset) passes the threshold of
+            # that direction (the two differ with an asymmetric Coulomb level).
+            for d in (1, -1):
+                mk(lambda t, y, i=force, jt=jt, d=d: d * (self.eval(t, y.tolist(), modes, u)[i] + jt.F_O)
+                   - jt.threshold(d), +1, (name, "break", None))
         return evs
 
     # -- choosing consistent modes at a restart ----------------------------------------
@@ -401,7 +436,8 @@ class _Rig:
                 continue
             speed = y[idx]
             if event is not None and event[0] == j and event[1] == "break":
-                force = self.eval(t, y, prev, u)[4 if j == "cart" else 5]
+                jt = self.cj if j == "cart" else self.pj
+                force = self.eval(t, y, prev, u)[4 if j == "cart" else 5] + jt.F_O
                 cand[j] = [_sgn(force)]
                 forced[j] = "break"
             elif event is not None and event[0] == j and event[1] == "stop":
@@ -421,7 +457,7 @@ class _Rig:
                 if not modal or y[idx] != 0:
                     continue
                 if m == 0:
-                    ok = abs(force) <= jt.thr
+                    ok = jt.holds(force + jt.F_O)
                 elif forced.get(j) == "break" or (m == pm and j not in forced):
                     ok = m * acc >= 0
                 else:
@@ -489,6 +525,8 @@ class _Rig:
             joint, kind, new = fired[0].info
             if kind == "stop":
                 y[2 if joint == "cart" else 4] = 0.0  # exactly at rest
+            if kind == "break":
+                t1, y = _past_root(fired[0], sol.sol, t1, seg_end, y)
             new_modes = self.resolve(t1, y.tolist(), u, modes, (joint, kind, new))
             self._record(events, t1, modes, new_modes, include_current=True)
             stall = stall + 1 if t1 <= t else 0
@@ -518,6 +556,29 @@ class _Rig:
                 continue
             if old[k] != new[k]:
                 events.append(Event(float(t), names[k], int(old[k]), int(new[k])))
+
+
+def _past_root(event, dense, t1: float, t_max: float, y):
+    """A breakaway's time moved just past its root, where the net force has crossed the
+    threshold (the event function > 0), as the FMU's event bracket does (its right end).
+
+    Why: the root finder may return a time a hair before the crossing. Without Stribeck
+    that does not matter (the joint then accelerates at (|F_N| - F_K)/m > 0), but with
+    Stribeck the sliding friction at v = 0 equals F_S, so the acceleration there is
+    (|F_N| - F_S)/m: zero at the root and of the wrong sign before it, and the joint would
+    stop again at once (Zeno). Steps of 1, 2, 4, ... ulps up to 1e-12 s (the FMU's bracket)
+    on the dense output; a root found on the far side is kept as it is.
+    """
+    if event(t1, y) > 0:
+        return t1, y
+    step = abs(np.spacing(t1))
+    while step <= 1e-12:
+        t = min(t1 + step, t_max)
+        y_t = dense(t)
+        if event(t, y_t) > 0:
+            return t, y_t
+        step *= 2
+    return t1, y
 
 
 # ---------------------------------------------------------------------- public API

@@ -231,16 +231,23 @@ def tampered(exported_fmu: Path, tmp_path: Path, edit) -> Path:
     return target
 
 
+# The appended line's number and the input's value reference follow the Pendulum's variable
+# table (they grow when parameters are added), so they are read from it, not written here.
+INPUT_A = COMPONENTS["Pendulum"].value_reference("a")
+
+
 @pytest.mark.parametrize("edit, message", [
     (lambda lines: ["guid {00000000-0000-4000-8000-000000000000}", *lines[1:]], "does not match this binary's"),
-    (lambda lines: [*lines, "0 0.0"], "line 23: m_p = 0 is outside its physical range"),
-    (lambda lines: [*lines, "99 1.0"], "line 23: expected '<parameter value reference> <finite value>'"),
-    (lambda lines: [*lines, "10 1.0"], "line 23: expected '<parameter value reference> <finite value>'"),  # 10: input a
-    (lambda lines: [*lines, "4 nan"], "line 23: expected"),
+    (lambda lines: [*lines, "0 0.0"], "line {appended}: m_p = 0 is outside its physical range"),
+    (lambda lines: [*lines, "99 1.0"], "line {appended}: expected '<parameter value reference> <finite value>'"),
+    (lambda lines: [*lines, f"{INPUT_A} 1.0"], "line {appended}: expected '<parameter value reference> <finite value>'"),
+    (lambda lines: [*lines, "4 nan"], "line {appended}: expected"),
     (lambda lines: [], "does not match this binary's"),
 ], ids=["guid-mismatch", "out-of-range", "unknown-vr", "not-a-parameter", "not-finite", "empty"])
 def test_tampered_start_file_fails_instantiation_with_a_message(exported, tmp_path, edit, message):
+    appended = len(fmu_members(exported[0] / "Pendulum.fmu")[START_FILE].decode().splitlines()) + 1
     messages = instantiate(tampered(exported[0] / "Pendulum.fmu", tmp_path, edit), tmp_path)
+    message = message.format(appended=appended)
     assert any(message in m for m in messages), messages
 
 

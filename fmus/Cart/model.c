@@ -6,7 +6,8 @@
  *
  * A self-locking screw (eta <= 0.5) ignores the pendulum inputs; a back-drivable one
  * couples cart and pendulum accelerations (an algebraic loop the master solves).
- * F_F is the three-mode stick-slip friction of friction.h.
+ * F_F is the three-mode stick-slip friction of friction.h, with its optional extras
+ * (Stribeck speed v_Sc, asymmetries dk_fwc and dF_Kc, offset force F_Oc; all 0 by default).
  */
 #include <math.h>
 #include <stdio.h>
@@ -16,10 +17,10 @@
 #include "trig_memo.h"
 
 /* Memo slots: the trigonometry of phi (back-drivable screw); phi functions of the last exact step */
-enum { MEMO_TRIG = 0, MEMO_STEP = TRIG_MEMO_SLOTS, MEMO_PHI = MEMO_STEP + 1 };
+enum { MEMO_TRIG = 0, MEMO_STEP = TRIG_MEMO_SLOTS, MEMO_PHI = MEMO_STEP + 1, MEMO_LAMBDA = MEMO_PHI + 3 };
 
 static Friction friction(const Instance *inst) {
-    const Friction f = {R(k_fwc), R(F_Kc), R(F_Sc)};
+    const Friction f = {R(k_fwc), R(F_Kc), R(F_Sc), R(dk_fwc), R(dF_Kc), R(v_Sc), R(F_Oc), 0.0};
     return f;
 }
 
@@ -34,8 +35,8 @@ static double active_force(const Instance *inst) {
 }
 
 bool model_check_parameters(const Instance *inst, char *why, size_t size) {
-    (void)inst, (void)why, (void)size;
-    return true;
+    return friction_asymmetry_ok(R(k_fwc), R(dk_fwc), "k_fwc", "dk_fwc", "N.s/m", why, size) &&
+           friction_asymmetry_ok(R(F_Kc), R(dF_Kc), "F_Kc", "dF_Kc", "N", why, size);
 }
 
 void model_initial_states(Instance *inst) {
@@ -45,15 +46,26 @@ void model_initial_states(Instance *inst) {
     MODE = friction_initial_mode(&f, R(v0), active_force(inst));
 }
 
-/* Whether the exact step applies: a self-locking screw (the drive depends on I alone) and
- * an input I held or ramped over the step. */
+/* Whether the exact step applies: a self-locking screw (the drive depends on I alone), an
+ * input I held or ramped over the step, and no Stribeck term (which makes the equation
+ * nonlinear in v). */
 static bool linear_over_step(const Instance *inst, double *slope) {
-    return R(eta) <= 0.5 && input_is_linear(inst, VR_I, slope);
+    return R(eta) <= 0.5 && !(R(v_Sc) > 0.0) && input_is_linear(inst, VR_I, slope);
+}
+
+/* The largest rate |d(F_F)/dv| the sliding law can have: the larger viscous coefficient,
+ * plus the Stribeck slope's maximum |F_S - F_K| sqrt(2/e) / v_S (at v = v_S/sqrt(2)). */
+static double friction_stiffness(const Instance *inst) {
+    double stiffness = R(k_fwc) + fabs(R(dk_fwc));
+    if (R(v_Sc) > 0.0)
+        stiffness += (fabs(R(F_Sc) - R(F_Kc)) + fabs(R(dF_Kc))) * sqrt(2.0 / exp(1.0)) / R(v_Sc);
+    return stiffness;
 }
 
 double model_max_step(const Instance *inst) {
     /* RK4 (with the pendulum coupled) is stable up to 2.78 time constants; stay well inside for accuracy. */
-    return R(k_fwc) > 0.0 ? 0.2 * (R(m_c) + R(m_p)) / R(k_fwc) : INFINITY;
+    const double stiffness = friction_stiffness(inst);
+    return stiffness > 0.0 ? 0.2 * (R(m_c) + R(m_p)) / stiffness : INFINITY;
 }
 
 /* phi[k-1] = phi_k(z) = sum_j z^j / (j+k)!, the functions of exponential integrators
@@ -81,20 +93,21 @@ static void phi_functions(double z, double phi[3]) {
     }
 }
 
-/* The phi functions for a step h (z = -lambda h), memoized by h: communication steps repeat,
- * and lambda is fixed once the parameters are. */
+/* The phi functions for a step h (z = -lambda h), memoized by h and lambda: communication
+ * steps repeat, and lambda changes only with the direction (dk_fwc != 0). */
 static const double *phi_functions_of_step(Instance *inst, double lambda, double h) {
     double *memo = inst->s.memo;
-    if (!(memo[MEMO_STEP] == h && h != 0.0)) {
+    if (!(memo[MEMO_STEP] == h && h != 0.0 && memo[MEMO_LAMBDA] == lambda)) {
         memo[MEMO_STEP] = h;
+        memo[MEMO_LAMBDA] = lambda;
         phi_functions(-lambda * h, &memo[MEMO_PHI]);
     }
     return &memo[MEMO_PHI];
 }
 
 /* The exact solution for a self-locking screw and I(t+s) = I + c s. Sliding, the cart obeys
- *     v' = A + B s - lambda v,   A = (eta k_M k_D I - F_Kc mode)/M,  B = eta k_M k_D c/M,
- *     lambda = k_fwc/M,  M = m_c + m_p,
+ *     v' = A + B s - lambda v,   A = (eta k_M k_D I - F_K(mode) mode + F_Oc)/M,  B = eta k_M k_D c/M,
+ *     lambda = k_fw(mode)/M,  M = m_c + m_p,  (k_fw, F_K of the mode's direction: friction.h)
  * a linear equation whose solution with z = -lambda h is
  *     v(h) = v + h phi_1(z) (A - lambda v) + h^2 phi_2(z) B
  *     x(h) = x + h v + h^2 phi_2(z) (A - lambda v) + h^3 phi_3(z) B.
@@ -108,8 +121,10 @@ bool model_exact_step(Instance *inst, double t, const double *x, double h, doubl
         x_out[S_v] = x[S_v];
         return true;
     }
-    const double M = R(m_c) + R(m_p), gain = R(eta) * R(k_M) * R(k_D) / M, lambda = R(k_fwc) / M;
-    const double A = gain * R(I) - R(F_Kc) * MODE / M, B = gain * slope;
+    const Friction f = friction(inst);
+    const double M = R(m_c) + R(m_p), gain = R(eta) * R(k_M) * R(k_D) / M;
+    const double lambda = friction_viscous(&f, MODE) / M;
+    const double A = gain * R(I) - friction_coulomb(&f, MODE) * MODE / M + R(F_Oc) / M, B = gain * slope;
     const double pull = A - lambda * x[S_v];
     const double *phi = phi_functions_of_step(inst, lambda, h);
     x_out[S_v] = x[S_v] + h * phi[0] * pull + h * h * phi[1] * B;
@@ -117,9 +132,10 @@ bool model_exact_step(Instance *inst, double t, const double *x, double h, doubl
     return true;
 }
 
-/* The cart's acceleration in the current mode: exactly 0 while stuck. */
+/* The cart's acceleration in the current mode: exactly 0 while stuck. The offset force
+ * acts on the cart beside the active force (F_A stays the drive and the pendulum's push). */
 static double acceleration(const Instance *inst, const Friction *f, double v, double F_A) {
-    return MODE == 0 ? 0.0 : (F_A - friction_force(f, MODE, v, F_A)) / (R(m_c) + R(m_p));
+    return MODE == 0 ? 0.0 : (F_A + f->F_O - friction_force(f, MODE, v, F_A)) / (R(m_c) + R(m_p));
 }
 
 void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {

@@ -4,7 +4,9 @@
  *     J_p alpha = T_A - T_F,    T_A = m_p l (g sin(phi) - a cos(phi))
  *
  * J_p = 0 selects the uniform rod of the paper, J_p = (4/3) m_p l^2. T_F is the
- * three-mode stick-slip friction of friction.h.
+ * three-mode stick-slip friction of friction.h, with its optional extras (Stribeck speed
+ * w_Sp, asymmetries dk_fwp and dT_Kp, offset torque T_Op, quadratic air drag k_dp w|w|;
+ * all 0 by default).
  */
 #include <math.h>
 #include <stdio.h>
@@ -14,7 +16,7 @@
 #include "trig_memo.h"
 
 static Friction friction(const Instance *inst) {
-    const Friction f = {R(k_fwp), R(T_Kp), R(T_Sp)};
+    const Friction f = {R(k_fwp), R(T_Kp), R(T_Sp), R(dk_fwp), R(dT_Kp), R(w_Sp), R(T_Op), R(k_dp)};
     return f;
 }
 
@@ -23,17 +25,24 @@ static double inertia(const Instance *inst) {
 }
 
 /* The equation of motion divided by J, for the RK4 stages:
- *     alpha = GRAVITY sin phi - ARM a cos phi - VISCOUS w - COULOMB mode
- * with GRAVITY = m l g / J, ARM = m l / J, VISCOUS = k_fwp / J, COULOMB = T_Kp / J. */
-enum { D_GRAVITY, D_ARM, D_VISCOUS, D_COULOMB };
+ *     alpha = GRAVITY sin phi - ARM a cos phi - VISCOUS(d) w - COULOMB(d) mode [+ extras]
+ * with GRAVITY = m l g / J, ARM = m l / J, VISCOUS(d) = (k_fwp + d dk_fwp) / J,
+ * COULOMB(d) = (T_Kp + d dT_Kp) / J for the direction d = mode (the _BACK slot follows the
+ * _FWD one). EXTRAS flags the terms that need more work per stage (offset, Stribeck, drag):
+ * without them the stages compute exactly what they did before the extras existed. */
+enum { D_GRAVITY, D_ARM, D_VISCOUS_FWD, D_VISCOUS_BACK, D_COULOMB_FWD, D_COULOMB_BACK, D_EXTRAS, D_INERTIA };
 
 static void derive_constants(Instance *inst) {
     double *d = inst->s.derived;
     const double J = inertia(inst);
     d[D_GRAVITY] = R(m_p) * R(l) * R(g) / J;
     d[D_ARM] = R(m_p) * R(l) / J;
-    d[D_VISCOUS] = R(k_fwp) / J;
-    d[D_COULOMB] = R(T_Kp) / J;
+    d[D_VISCOUS_FWD] = (R(k_fwp) + R(dk_fwp)) / J;
+    d[D_VISCOUS_BACK] = (R(k_fwp) - R(dk_fwp)) / J;
+    d[D_COULOMB_FWD] = (R(T_Kp) + R(dT_Kp)) / J;
+    d[D_COULOMB_BACK] = (R(T_Kp) - R(dT_Kp)) / J;
+    d[D_EXTRAS] = R(T_Op) != 0.0 || R(w_Sp) > 0.0 || R(k_dp) != 0.0;
+    d[D_INERTIA] = J;
 }
 
 static double active_torque(const Instance *inst, const double *x) {
@@ -42,6 +51,9 @@ static double active_torque(const Instance *inst, const double *x) {
 }
 
 bool model_check_parameters(const Instance *inst, char *why, size_t size) {
+    if (!friction_asymmetry_ok(R(k_fwp), R(dk_fwp), "k_fwp", "dk_fwp", "N.m.s", why, size) ||
+        !friction_asymmetry_ok(R(T_Kp), R(dT_Kp), "T_Kp", "dT_Kp", "N.m", why, size))
+        return false;
     const double point_mass = R(m_p) * R(l) * R(l);
     if (R(J_p) > 0.0 && R(J_p) < point_mass * (1.0 - 1e-12)) {
         snprintf(why, size,
@@ -65,7 +77,12 @@ double model_max_step(const Instance *inst) {
     const double J = inertia(inst);
     const double omega = sqrt(R(m_p) * R(l) * R(g) / J); /* small-angle natural frequency */
     double h = omega > 0.0 ? 0.05 / omega : INFINITY;
-    if (R(k_fwp) > 0.0) h = fmin(h, 0.2 * J / R(k_fwp));
+    /* The sliding law's steepest rate |dT_F/dw|: the larger viscous coefficient plus the
+     * Stribeck slope's maximum |T_S - T_K| sqrt(2/e) / w_S. The drag's rate 2 k_dp |w| is
+     * not bounded here: for air drag it is far below the viscous one. */
+    double stiffness = R(k_fwp) + fabs(R(dk_fwp));
+    if (R(w_Sp) > 0.0) stiffness += (fabs(R(T_Sp) - R(T_Kp)) + fabs(R(dT_Kp))) * sqrt(2.0 / exp(1.0)) / R(w_Sp);
+    if (stiffness > 0.0) h = fmin(h, 0.2 * J / stiffness);
     return h;
 }
 
@@ -82,9 +99,14 @@ void model_derivatives(const Instance *inst, double t, const double *x, double *
         dx[S_w] = 0.0; /* stuck */
         return;
     }
-    /* (T_A - T_F) / J with the sliding friction law T_F = k_fwp w + T_Kp mode */
-    dx[S_w] = trig_memo_wave(inst, 0, x[S_phi], d[D_GRAVITY], -d[D_ARM] * R(a)) - d[D_VISCOUS] * x[S_w] -
-              d[D_COULOMB] * MODE;
+    /* (T_A - T_F) / J with the sliding friction law T_F = k_fwp(d) w + T_Kp(d) mode */
+    const int back = MODE < 0;
+    dx[S_w] = trig_memo_wave(inst, 0, x[S_phi], d[D_GRAVITY], -d[D_ARM] * R(a)) - d[D_VISCOUS_FWD + back] * x[S_w] -
+              d[D_COULOMB_FWD + back] * MODE;
+    if (d[D_EXTRAS] != 0.0) { /* + (T_Op - Stribeck - drag) / J */
+        const Friction f = friction(inst);
+        dx[S_w] += (R(T_Op) - friction_extra(&f, MODE, x[S_w])) / d[D_INERTIA];
+    }
 }
 
 void model_event_indicators(const Instance *inst, double t, const double *x, double *z) {

@@ -9,6 +9,10 @@ model Cart "Cart on a lead screw driven by the DC motor, with viscous, Coulomb a
   parameter Real k_fwc(unit = "N.s/m") = 30.0 "Viscous friction coefficient of the cart";
   parameter Real F_Kc(unit = "N") = 8.0 "Coulomb (kinetic) friction force of the cart";
   parameter Real F_Sc(unit = "N") = 12.0 "Stiction (maximum static friction) force of the cart";
+  parameter Real v_Sc(unit = "m/s") = 0.0 "Stribeck speed of the cart: sliding friction falls from F_Sc to F_Kc as exp(-(v/v_Sc)^2) (0: no Stribeck effect)";
+  parameter Real dk_fwc(unit = "N.s/m") = 0.0 "Direction asymmetry of the cart's viscous friction: k_fwc + dk_fwc for v > 0, k_fwc - dk_fwc for v < 0";
+  parameter Real dF_Kc(unit = "N") = 0.0 "Direction asymmetry of the cart's Coulomb friction: F_Kc + dF_Kc for v > 0, F_Kc - dF_Kc for v < 0";
+  parameter Real F_Oc(unit = "N") = 0.0 "Constant offset force on the cart along +x (cable drag, a tilted track)";
   parameter Real x0(unit = "m") = 0.0 "Initial position";
   parameter Real v0(unit = "m/s") = 0.0 "Initial speed";
   input Real I(unit = "A", start = 0.0) "Motor current";
@@ -25,9 +29,12 @@ model Cart "Cart on a lead screw driven by the DC motor, with viscous, Coulomb a
 protected
   final parameter Real A(unit = "1") = if eta > 0.5 then (2*eta - 1)/eta else 0 "Back-drive efficiency A(eta)";
   StickSlip friction(final m = m_c + m_p, final k_fw = k_fwc, final F_K = F_Kc, final F_S = F_Sc,
+    final v_S = v_Sc, final dk_fw = dk_fwc, final dF_K = dF_Kc, final F_O = F_Oc, final drag = 0,
     final v_start = v0) "Stick-slip friction of the screw; owns the speed state";
 equation
   assert(m_c > 0 and eta > 0 and eta <= 1, "Cart: need m_c > 0 and 0 < eta <= 1");
+  assert(v_Sc >= 0 and abs(dk_fwc) <= k_fwc and abs(dF_Kc) <= F_Kc,
+    "Cart: need v_Sc >= 0, |dk_fwc| <= k_fwc and |dF_Kc| <= F_Kc (no negative friction in either direction)");
   F_A = eta*k_M*k_D*I + A*m_p*l*(w^2*sin(phi) - alpha*cos(phi));
   friction.F_A = F_A;
   der(x) = v;
@@ -44,7 +51,10 @@ equation
   A(eta) = max(0, (2 eta - 1)/eta)
 </pre>
 <p>F_F is the stick-slip friction of <a href=\"modelica://PendulumID.StickSlip\">StickSlip</a>
-with k_fw = k_fwc, F_K = F_Kc, F_S = F_Sc. A self-locking screw (eta &le; 0.5, A = 0)
+with k_fw = k_fwc, F_K = F_Kc, F_S = F_Sc and its extras (Stribeck speed v_Sc, asymmetries
+dk_fwc and dF_Kc, offset force F_Oc: 0 by default, the paper's model). The offset acts
+beside F_A: (m_c + m_p) a = F_A + F_Oc - F_F, and the cart stays stuck while F_A + F_Oc is
+within the breakaway thresholds. A self-locking screw (eta &le; 0.5, A = 0)
 ignores the pendulum inputs <code>phi</code>, <code>w</code>, <code>alpha</code>; with a
 back-drivable one (eta &gt; 0.5) cart and pendulum form an algebraic loop.</p>
 <p>The FMU's parameter <code>solver_step</code> and local <code>t_mode</code> do not
