@@ -371,3 +371,21 @@ def test_rig_with_every_extra_matches_the_reference(eta):
     assert np.max(np.abs(frame["Pendulum.phi"] - reference["phi"].to_numpy())) <= 1e-3
     plain = cosimulate_rig(eta, {})
     assert np.max(np.abs(frame["Cart.x"] - plain["Cart.x"])) > 1e-2  # the extras matter here
+
+
+def test_the_stages_fit_the_extras_stribeck_in_its_decades_offsets_with_bounds(cart_recording):
+    """--free v_Sc searches its physical decades; an offset or an asymmetry has a sign and a
+    size only the rig knows, so the fit asks for --bounds and names the option."""
+    from pendfmu.components import rig_defaults
+    from pendfmu.fitting.stages import make_experiment, stage_free_parameters
+    from pendfmu.parameters import ParameterFileError
+    from pendfmu.recording import read_recording
+
+    values = rig_defaults()
+    experiments = [make_experiment(read_recording(cart_recording), "cart", values)]
+    free = {p.name: p for p in stage_free_parameters("cart", experiments, ["v_Sc", "F_Oc"], [],
+                                                     {"F_Oc": (-5.0, 5.0)}, values)}
+    assert (free["v_Sc"].low, free["v_Sc"].high, free["v_Sc"].log) == (1e-4, 1.0, True)
+    assert (free["F_Oc"].low, free["F_Oc"].high, free["F_Oc"].log) == (-5.0, 5.0, False)
+    with pytest.raises(ParameterFileError, match="--bounds dF_Kc=LOW:HIGH"):
+        stage_free_parameters("cart", experiments, ["dF_Kc"], [], {}, values)

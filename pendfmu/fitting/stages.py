@@ -159,6 +159,10 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
     "k_fwp": (1e-7, 1e-1, True), "T_Kp": (1e-7, 1e-1, True), "T_Sp": (1e-7, 1e-1, True),
     "m_c": (0.05, 100.0, True), "x0": (-1.0, 1.0, False), "v0": (-5.0, 5.0, False),
     "J_p": (1e-6, 10.0, True), "w0": (-20.0, 20.0, False),
+    # The friction law's extras (off at 0, so a decade around the start cannot apply): Stribeck
+    # speeds and air drag over their physical decades. Asymmetries and offsets have a sign and a
+    # size set by the rig: they need --bounds.
+    "v_Sc": (1e-4, 1.0, True), "w_Sp": (1e-4, 10.0, True), "k_dp": (1e-9, 1e-1, True),
 }
 
 
