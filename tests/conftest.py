@@ -38,3 +38,22 @@ def result_without_time(path):
     if isinstance(document["fit"].get("uncertainty"), dict):
         document["fit"]["uncertainty"].pop("seconds", None)
     return document
+
+
+@pytest.fixture
+def interrupt_costs(monkeypatch):
+    """Counts the fit's cost evaluations (Residuals.sum_of_squares, in this process) in
+    ``calls["n"]`` and raises KeyboardInterrupt, as Ctrl-C would, at ``calls["stop_at"]``."""
+    from pendfmu.fitting.residuals import Residuals
+
+    calls = {"n": 0, "stop_at": None}
+    original = Residuals.sum_of_squares
+
+    def counted(self, u):
+        calls["n"] += 1
+        if calls["n"] == calls["stop_at"]:
+            raise KeyboardInterrupt
+        return original(self, u)
+
+    monkeypatch.setattr(Residuals, "sum_of_squares", counted)
+    return calls

@@ -107,42 +107,22 @@ def test_an_fmu_without_reset_is_instantiated_anew_per_run(tmp_path):
     assert result.parameters["c"] == pytest.approx(5.0, rel=1e-4)
 
 
-def test_an_ssp_system_replays_as_the_rig_does(tmp_path):
+@pytest.mark.parametrize("eta, overrides", [(0.4, {}), (0.7, {"phi0": 3.6416})], ids=["acyclic", "loop"])
+def test_an_ssp_system_replays_as_the_rig_does(tmp_path, eta, overrides):
     """The rig written as an SSP archive, simulated with --system, equals `pendfmu simulate`
-    of the rig (the master) on the same recording: one engine, two descriptions."""
+    of the rig (the master) on the same recording: one engine, two descriptions. At eta 0.4
+    the system is a chain (replayed link by link); at eta 0.7 it is back-drivable (Cart.a ->
+    Pendulum.a -> Pendulum.alpha -> Cart.alpha, an algebraic loop run in the master)."""
     from pendfmu.fmubuild import build_all
     from pendfmu.fmubuild.compiler import FMUS_DIR
     from pendfmu.ssp import rig_system, write_ssp
     from pendfmu.virtual_rig import Experiment, steps, write_experiments
 
     build_all()
-    write_ssp(rig_system(0.4, FMUS_DIR, {"k_fwc": 25.0}), tmp_path / "rig.ssp")
+    values = {"eta": eta, "k_fwc": 25.0}
+    write_ssp(rig_system(eta, FMUS_DIR, values), tmp_path / "rig.ssp")
     experiment = Experiment("step", "rig", 0.5, 2e-4, ("I_c", "I", "x", "phi"), steps((0, 0.0), (0.05, 1.5)),
-                            known_initial=("x", "v", "phi", "w"))
-    write_experiments(tmp_path, {}, seed=1, experiments=[experiment])
-    (tmp_path / "p.json").write_text(json.dumps({"parameters": {"k_fwc": 25.0}}))
-    assert main(["simulate", "--input", str(tmp_path / "step.csv"), "--params", str(tmp_path / "p.json"),
-                 "--out", str(tmp_path / "rig.csv")]) == 0
-    assert main(["simulate", "--system", str(tmp_path / "rig.ssp"), "--input", str(tmp_path / "step.csv"),
-                 "--drive", "I_c", "--out", str(tmp_path / "ssp.csv")]) == 0
-    rig, ssp = pd.read_csv(tmp_path / "rig.csv"), pd.read_csv(tmp_path / "ssp.csv")
-    for name in ("x", "phi"):
-        assert np.max(np.abs(rig[name] - ssp[name])) < 1e-12, name
-
-
-def test_an_ssp_system_with_an_algebraic_loop_runs_in_the_master(tmp_path):
-    """The back-drivable rig (eta 0.7: Cart.a -> Pendulum.a -> Pendulum.alpha -> Cart.alpha)
-    as an SSP archive, simulated with --system, equals `pendfmu simulate` of the rig."""
-    from pendfmu.fmubuild import build_all
-    from pendfmu.fmubuild.compiler import FMUS_DIR
-    from pendfmu.ssp import rig_system, write_ssp
-    from pendfmu.virtual_rig import Experiment, steps, write_experiments
-
-    build_all()
-    values = {"eta": 0.7, "k_fwc": 25.0}
-    write_ssp(rig_system(0.7, FMUS_DIR, values), tmp_path / "rig.ssp")
-    experiment = Experiment("step", "rig", 0.5, 2e-4, ("I_c", "I", "x", "phi"), steps((0, 0.0), (0.05, 1.5)),
-                            truth_overrides={"phi0": 3.6416}, known_initial=("x", "v", "phi", "w"))
+                            truth_overrides=overrides, known_initial=("x", "v", "phi", "w"))
     write_experiments(tmp_path, values, seed=1, experiments=[experiment])
     (tmp_path / "p.json").write_text(json.dumps({"parameters": values}))
     assert main(["simulate", "--input", str(tmp_path / "step.csv"), "--params", str(tmp_path / "p.json"),
@@ -229,26 +209,15 @@ def test_names_that_are_also_the_rigs_mean_what_the_model_says(tmp_path, capsys)
     assert code == 4 and "the model failed: Colliding: m_p = 0 is out of range: a mass must be > 0" in err
 
 
-def test_an_interrupted_foreign_fit_resumes_to_the_same_result(cart, tmp_path, monkeypatch):
+def test_an_interrupted_foreign_fit_resumes_to_the_same_result(cart, tmp_path, interrupt_costs):
     """Ctrl-C during `pendfmu fit --fmu` writes the best values so far and a checkpoint;
     --resume ends at the result of a fit never interrupted, to the bit."""
     from conftest import result_without_time
 
-    from pendfmu.fitting.residuals import Residuals
-
     folder, fmu, recordings = cart
     command = ["fit", "--fmu", str(fmu), *(str(recordings[n]) for n in FIT_NAMES), "--free", *FITTED,
                "--params", str(folder / "start.json"), "--seed", "3", "--workers", "1", "--uncertainty", "jacobian"]
-    calls = {"n": 0, "stop_at": None}
-    original = Residuals.sum_of_squares
-
-    def counted(self, u):
-        calls["n"] += 1
-        if calls["n"] == calls["stop_at"]:
-            raise KeyboardInterrupt
-        return original(self, u)
-
-    monkeypatch.setattr(Residuals, "sum_of_squares", counted)
+    calls = interrupt_costs
     assert main(command + ["--out", str(tmp_path / "straight.json")]) == 0
     assert calls["n"] > 40, "the global search did not run in this process"
     calls.update(n=0, stop_at=40)

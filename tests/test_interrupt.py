@@ -15,7 +15,6 @@ import time
 from conftest import CART_TRUTH, result_without_time
 
 from pendfmu.cli import main
-from pendfmu.fitting.residuals import Residuals
 from pendfmu.virtual_rig import Experiment, steps, write_experiments
 
 
@@ -25,18 +24,10 @@ def cart_experiment(name, duration, current):
                       sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"))
 
 
-def test_interrupt_writes_best_so_far_and_resume_matches_an_uninterrupted_fit(cart_recording, tmp_path, monkeypatch):
+def test_interrupt_writes_best_so_far_and_resume_matches_an_uninterrupted_fit(cart_recording, tmp_path,
+                                                                                 interrupt_costs):
     command = ["fit", "cart", str(cart_recording), "--seed", "8", "--workers", "1"]
-    calls = {"n": 0, "stop_at": None}
-    original = Residuals.sum_of_squares
-
-    def counted(self, u):
-        calls["n"] += 1
-        if calls["n"] == calls["stop_at"]:
-            raise KeyboardInterrupt
-        return original(self, u)
-
-    monkeypatch.setattr(Residuals, "sum_of_squares", counted)
+    calls = interrupt_costs
     assert main(command + ["--out", str(tmp_path / "straight.json")]) == 0
     straight_calls = calls["n"]
 
