@@ -17,6 +17,8 @@ from pathlib import Path
 from pendfmu.components import COMPONENTS, parameter_table
 from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
+from pendfmu.recording.measurement import is_measurement, measurement_problem
+from pendfmu.recording.schema import SIGNAL_NAMES
 
 # Initial states set through the sidecar's "initial" block (signal name -> parameter).
 INITIAL_STATE_PARAMETERS = {"x": "x0", "v": "v0", "phi": "phi0", "w": "w0", "I": "I0", "I_mean": "I0"}
@@ -34,6 +36,13 @@ def check_value(name: str, value: object, where: str = "") -> float:
     """The value as a float, or a ParameterFileError naming the parameter and its range."""
     prefix = f"{where}: " if where else ""
     known = parameter_table()
+    if name not in known and is_measurement(name, SIGNAL_NAMES):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParameterFileError(f"{prefix}parameter {name} = {value!r} is not a number")
+        problem = measurement_problem(name, float(value))
+        if problem:
+            raise ParameterFileError(f"{prefix}parameter {name} = {value!r}: {problem}")
+        return float(value)
     if name not in known:
         raise ParameterFileError(f"{prefix}unknown parameter {name!r}; valid names: {', '.join(sorted(known))}")
     if isinstance(value, bool) or not isinstance(value, (int, float)):

@@ -13,7 +13,7 @@ PUBLIC = ["__version__", "fit", "fit_all", "fit_current", "FitResult", "Estimate
           "Recording", "read_recording", "write_recording"]
 FIT_PARAMETERS = ["model", "recordings", "params", "free", "fix", "bounds", "seed", "drive", "cost", "global_search",
                   "progress", "checkpoint", "warn", "strict", "uncertainty", "replicates", "upstream", "match",
-                  "initial", "interpolation"]
+                  "initial", "interpolation", "per_recording", "windows", "segment", "start"]
 
 
 def test_the_public_names_are_pinned():

@@ -179,7 +179,8 @@ def test_empty_cell_names_line_and_column(tmp_path):
 
 def test_nan_in_a_signal(tmp_path):
     path = write_csv(tmp_path, "time,x\n0,0\n1,nan\n2,NaN\n")
-    assert error_of(path) == f"{path}: NaN in column 'x' at line 3 (and 1 more)"
+    assert error_of(path) == (f"{path}: NaN in column 'x' at line 3 (and 1 more); if it marks a missing sample, "
+                              f'say so in the sidecar: "signals": {{"x": {{"missing": "nan"}}}}')
 
 
 def test_inf_in_a_signal(tmp_path):
@@ -445,7 +446,8 @@ def test_mat_simulink_nan_names_signal_and_sample(tmp_path):
     bad = T.copy()
     bad[4] = np.nan
     path = save_mat(tmp_path, {"yout": simulink_structure(T, [("x", T), ("phi", bad)])})
-    assert error_of(path) == f"{path}: NaN in 'phi' (yout.signals(2).values) at sample 5"
+    assert error_of(path) == (f"{path}: NaN in 'phi' (yout.signals(2).values) at sample 5; if it marks a missing "
+                              f'sample, say so in the sidecar: "signals": {{"phi": {{"missing": "nan"}}}}')
 
 
 def test_mat_timeseries_like_structs(tmp_path):

@@ -50,6 +50,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--interpolation", choices=("hold", "linear"), default="hold",
                         help="a model: its drives between samples, held (default) or linear (where the FMU can "
                              "interpolate inputs)")
+    parser.add_argument("--per-recording", nargs="+", action="extend", default=[], metavar="NAME",
+                        help="estimate these for each recording (or window, segment) on its own: initial states "
+                             "(x0 v0 phi0 w0), a sensor's offset (phi_offset), any parameter")
+    parser.add_argument("--window", nargs="+", action="extend", default=[], metavar="T0:T1",
+                        help="fit only these time windows of each recording (seconds); each starts from its own "
+                             "initial states")
+    parser.add_argument("--segment", type=float, metavar="SECONDS",
+                        help="split each recording (or window) into segments this long, each fitted from its own "
+                             "initial states (multiple shooting, for long, closed-loop or unstable runs)")
+    parser.add_argument("--start", choices=("estimated", "measured"), default="estimated",
+                        help="initial states of a window or segment that starts late: estimated (default) or taken "
+                             "from its first readings")
     parser.add_argument("--cost", choices=("plain", "quantized"), default="plain",
                         help="residuals: plain least squares, or zero inside each reading's quantization step")
     parser.add_argument("--no-global", action="store_true", help="skip the global search (local refinement only)")
@@ -98,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
     from pendfmu.fitting.models import checked_values
     from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.parameters import read_parameters, write_parameters
+    from pendfmu.recording.windows import parse_window
 
     check_output_file(args.out, "--out")
     if args.report:
@@ -113,11 +126,16 @@ def run(args: argparse.Namespace) -> int:
             if args.params else {}
     options = GlobalOptions(enabled=not args.no_global, workers=args.workers, scheduler=args.scheduler)
     bounds = _bounds(args.bounds)
+    windows = [parse_window(w) for w in args.window]
+    if args.stage == "all" and (windows or args.segment or args.per_recording):
+        raise UsageError("fit all fits each stage's recordings whole: --window, --segment and --per-recording "
+                         "are for one stage or model")
     files = sorted(Path(args.recordings[0]).iterdir()) if args.stage == "all" and Path(args.recordings[0]).is_dir() \
         else [Path(r) for r in args.recordings]
     files = [f for f in files if f.suffix.lower() in (".csv", ".mat") and f.is_file()]
     key = fingerprint(args.stage, sorted(params.items()), args.seed, args.cost, args.free, args.fix,
                       sorted(bounds.items()), args.drive, args.match, args.initial, args.interpolation, args.no_global,
+                      args.per_recording, windows, args.segment, args.start,
                       files=files + ([Path(args.fmu or args.system)] if model is not None else []))
     checkpoint = Checkpoint.load(path, key) if args.resume else Checkpoint(path, key)
     printed: list[str] = []
@@ -130,19 +148,20 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--replicates {args.replicates}: at least 8 (the interval's quantile needs them)")
     common = dict(seed=args.seed, cost=args.cost, global_search=options, checkpoint=checkpoint, warn=warn,
                   strict=args.strict, uncertainty=args.uncertainty, replicates=args.replicates)
+    parts = dict(per_recording=args.per_recording, windows=windows, segment=args.segment, start=args.start)
     try:
         if model is not None:
             result = fit(model, args.recordings, params, free=args.free, fix=args.fix, bounds=bounds,
                          drive=args.drive, match=args.match, initial=_pairs(args.initial, "--initial"),
-                         interpolation=args.interpolation, **common)
+                         interpolation=args.interpolation, **parts, **common)
         elif args.stage == "all":
             result = fit_all(args.recordings[0], params, **common)
         else:
             common.update(fix=args.fix, bounds=bounds, drive=_stage_drive(args))
-            if args.stage == "current" and not args.free:
+            if args.stage == "current" and not args.free and not any((windows, args.segment, args.per_recording)):
                 result = fit_current(args.recordings, params, **common)
             else:
-                result = fit(args.stage, args.recordings, params, free=args.free, **common)
+                result = fit(args.stage, args.recordings, params, free=args.free, **parts, **common)
     except Suspicious:
         print("pendfmu fit: --strict: not fitted, the recordings look wrong (warnings above)", file=sys.stderr)
         return EXIT_SUSPICIOUS

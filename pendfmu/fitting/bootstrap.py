@@ -74,6 +74,7 @@ class Replicates:
 def error_source(experiment: Experiment, residual: np.ndarray) -> str:
     """Where a recording's replicate errors come from: its sensor, or its own residuals
     when they stand well above that sensor's noise."""
+    residual = residual[np.isfinite(residual)]  # missing samples have none
     rms = float(np.sqrt(np.mean(residual**2))) if len(residual) else 0.0
     return "residuals" if rms > SENSOR_MATCH else "sensor model"
 
@@ -87,9 +88,10 @@ def synthetic_experiment(experiment: Experiment, simulated: dict[str, np.ndarray
     signals = dict(recording.signals)
     for output, column in experiment.match.items():
         exact = simulated[output]
+        missing = ~np.isfinite(recording.signals[column])  # a replicate misses the same samples
         if source == "residuals":
-            errors = residual[column] * experiment.scales[column]
-            signals[column] = exact + np.roll(errors, int(rng.integers(len(errors))))
+            errors = np.nan_to_num(residual[column] * experiment.scales[column])
+            signals[column] = np.where(missing, np.nan, exact + np.roll(errors, int(rng.integers(len(errors)))))
             continue
         info = recording.signal_info.get(column)
         resolution = info.resolution if info else None
@@ -98,7 +100,7 @@ def synthetic_experiment(experiment: Experiment, simulated: dict[str, np.ndarray
         if resolution:
             offset = float(rng.uniform(-0.5, 0.5)) * resolution
             value = quantize(value + offset, resolution, recording.quantizer(column)) - offset
-        signals[column] = value
+        signals[column] = np.where(missing, np.nan, value) if missing.any() else value
     fixed = dict(experiment.fixed)
     fixed.update({k: v for k, v in upstream.items() if k not in recording.parameters})
     return replace(experiment, recording=replace(recording, signals=signals), fixed=fixed)

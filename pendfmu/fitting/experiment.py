@@ -15,9 +15,8 @@ user's FMU or SSP system is the same thing with the names the user gives.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -42,6 +41,47 @@ class Setup:
     refine: Refinement | None = None
     coarse_decimate: int = 1
     coarse_values: Mapping[str, float] = field(default_factory=dict)
+    starts: tuple[StartState, ...] = ()  # every initial state the recordings can tell (estimated on request)
+
+
+@dataclass(frozen=True)
+class StartState:
+    """An initial-state parameter and the recorded column that tells it: its first
+    reading (x0 from x), or, with `rate`, its slope at the start (v0 from x)."""
+
+    parameter: str
+    column: str
+    rate: bool = False
+
+
+START_SAMPLES = 20
+"""Samples of the quadratic through a recording's first readings that gives a measured or
+guessed initial rate (the EMPS benchmark's state initialization window)."""
+
+
+def start_of(recording: Recording, state: StartState) -> tuple[float, float, float]:
+    """(value, low, high) of an initial state from the recording's first readings: a
+    position-like state is the first reading within two sensor steps; a rate the slope
+    of a quadratic through the first START_SAMPLES readings, within ten times that
+    slope's standard error (the sensor's error scale through the least squares), a
+    quarter of its size, or one step per window, whichever is widest."""
+    values = recording.signal(state.column)
+    present = np.flatnonzero(np.isfinite(values))
+    step = recording.resolution(state.column) or signal_scale(recording, state.column)
+    if not state.rate:
+        first = float(values[present[0]])
+        return first, first - 2 * step, first + 2 * step
+    chosen = present[:START_SAMPLES]
+    if len(chosen) < 3:
+        raise RecordingError(f"{recording.source}: too few readings of {state.column!r} to tell the initial "
+                             f"{state.parameter}")
+    t = recording.time[chosen] - recording.time[0]
+    design = np.column_stack([np.ones_like(t), t, t**2])
+    coefficients, *_ = np.linalg.lstsq(design, values[chosen], rcond=None)
+    slope = float(coefficients[1])
+    standard_error = signal_scale(recording, state.column) * math.sqrt(np.linalg.inv(design.T @ design)[1, 1])
+    reach = max(10 * standard_error, 0.25 * abs(slope), step / max(float(t[-1]), 1e-12))
+    return slope, slope - reach, slope + reach
 
 
 def signal_scale(recording: Recording, name: str) -> float:
@@ -54,9 +94,11 @@ def signal_scale(recording: Recording, name: str) -> float:
     resolution = info.resolution if info and info.resolution else 0.0
     if noise or resolution:
         return math.sqrt(noise**2 + resolution**2 / 12.0)
-    differences = np.diff(recording.signal(name))
-    spread = 1.4826 * np.median(np.abs(differences - np.median(differences))) / math.sqrt(2)
-    fallback = 1e-6 * max(np.ptp(recording.signal(name)), 1e-12)
+    values = recording.signal(name)
+    values = values[np.isfinite(values)]  # missing samples (NaN) aside
+    differences = np.diff(values)
+    spread = 1.4826 * np.median(np.abs(differences - np.median(differences))) / math.sqrt(2) if len(differences) else 0.0
+    fallback = 1e-6 * max(np.ptp(values) if len(values) else 0.0, 1e-12)
     return float(max(spread, fallback))
 
 
@@ -72,8 +114,7 @@ class Experiment:
 
     @property
     def name(self) -> str:
-        path = self.recording.path
-        return Path(path).stem if path else "recording"
+        return self.recording.label
 
     @property
     def time(self) -> np.ndarray:
@@ -98,21 +139,69 @@ class Experiment:
         return Replay(self.model, self.time, drives, decimate, self.setup.refine, pool, copy)
 
 
-def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float]) -> Experiment:
+def through_sensor(experiment: Experiment, name: str, low: float, high: float, free: Mapping[str, object]
+                   ) -> tuple[float, float]:
+    """An initial state's box (read off its recording) widened to hold every true value
+    that the free offset and scale of its sensor could have read so (measurement.py:
+    reading = scale * true + offset): with the sensor's zero or gain unknown, the first
+    reading says less. `free` maps the fit's shared free parameters to objects with
+    .low and .high."""
+    state = next((s for s in experiment.setup.starts if s.parameter == name), None)
+    if state is None:
+        return low, high
+    offset, scale = free.get(f"{state.column}_offset"), free.get(f"{state.column}_scale")
+    if offset is None and scale is None:
+        return low, high
+    offsets = (offset.low, offset.high) if offset is not None and not state.rate else (0.0, 0.0)
+    scales = (scale.low, scale.high) if scale is not None else (1.0, 1.0)
+    candidates = [(edge - o) / s for edge in (low, high) for o in offsets for s in scales]
+    return min(candidates), max(candidates)
+
+
+START_CHOICES = ("estimated", "measured")
+
+
+def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float], per_recording: Sequence[str] = (),
+            start: str = "estimated") -> Experiment:
     """The experiment of one recording: `fixed` are its known values (given, sidecar and
-    initial states merged by the caller); initial states it does not state are estimated
-    in a box of +-2 sensor steps around the first reading."""
+    initial states merged by the caller).
+
+    Estimated for this recording alone: the setup's initial states the recording does
+    not state (the pendulum's release angle), every initial state it can tell when it is
+    a window that starts after its file's first sample (a segment of a long run; with
+    `start` "measured" these are taken from its first readings instead), and the
+    parameters named in `per_recording`. An initial state's box comes from the data
+    (start_of); any other parameter's box is the fit's (guess and box None here)."""
     where = str(recording.path)
+    if start not in START_CHOICES:
+        raise RecordingError(f"start must be one of {', '.join(START_CHOICES)}, not {start!r}")
     for column in (*setup.match.values(), *(c for c, _ in setup.drives.values())):
         if column not in recording.signals:
             raise RecordingError(f"{where}: {setup.name} needs the recorded signal {column!r}; "
                                  f"columns: {', '.join(('time', *recording.signals))}")
+    for column, _ in setup.drives.values():
+        gaps = np.flatnonzero(~np.isfinite(recording.signal(column)))
+        if len(gaps):
+            raise RecordingError(f"{where}: column {column!r} drives {setup.name} and has {len(gaps)} missing samples "
+                                 f"(the first at t = {recording.time[gaps[0]]:g} s): a drive must be complete; "
+                                 f"fit the windows between the gaps (--window)")
     experiment = Experiment(recording, setup, dict(fixed))
-    for column, parameter in setup.estimated_initial.items():
-        if column not in recording.initial:
-            first = float(recording.signal(column)[0])
-            step = recording.resolution(column) or signal_scale(recording, column)
-            experiment.estimated[parameter] = (first, first - 2 * step, first + 2 * step)
+    starts = {state.parameter: state for state in setup.starts}
+    stated = {setup.estimated_initial.get(column, column) for column in recording.initial}
+    late = recording.span is not None and not recording.initial
+    wanted = [p for c, p in setup.estimated_initial.items() if c not in recording.initial]
+    if late:
+        wanted += [p for p in starts if p not in stated]
+    wanted += list(per_recording)
+    for name in dict.fromkeys(wanted):
+        if name in starts:
+            value, low, high = start_of(recording, starts[name])
+            if late and start == "measured" and name not in per_recording:
+                experiment.fixed[name] = value
+            else:
+                experiment.estimated[name] = (value, low, high)
+        else:
+            experiment.estimated[name] = (fixed.get(name), None, None)  # the fit's box
     for column in setup.match.values():
         experiment.scales[column] = signal_scale(recording, column)
     return experiment

@@ -11,6 +11,7 @@ is sequence.py, the current stage's ripple ripple.py.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
@@ -31,6 +32,8 @@ from pendfmu.fitting.stiction import JOINTS, bound_stiction
 from pendfmu.fitting.uncertainty import REPLICATES, assess_uncertainty
 from pendfmu.parameters import ParameterFileError, check_parameters
 from pendfmu.recording import Recording, RecordingError, read_recording
+from pendfmu.recording.measurement import measurement_signal, no_effect
+from pendfmu.recording.windows import cut
 from pendfmu.simulator.component import FMUError
 from pendfmu.simulator.model import Model
 
@@ -39,6 +42,12 @@ def _recordings(recordings: Sequence[str | Path | Recording]) -> list[Recording]
     if not recordings:
         raise RecordingError("no recordings given")
     return [r if isinstance(r, Recording) else read_recording(r) for r in recordings]
+
+
+def _parts(recordings: Sequence[Recording], windows: Sequence[tuple[float, float]] | None,
+           segment: float | None) -> list[Recording]:
+    """Each recording's windows and segments (recording/windows.py), in order."""
+    return [part for r in recordings for part in cut(r, windows or (), segment)]
 
 
 # RMS of the scaled residuals (1 at the truth) above which the fit says the model is missing something
@@ -59,8 +68,25 @@ def _listed(recordings: Sequence[str | Path | Recording]) -> list[str | Path | R
 
 
 def _start(free: list[FreeParameter], values: Mapping[str, float], experiments: list[Experiment]) -> np.ndarray:
-    guesses = {e.name: e.estimated for e in experiments}
-    start = [guesses[p.experiment][p.name][0] if p.experiment else values.get(p.name, p.low) for p in free]
+    """The start of the search: given values, a recording's own guesses for its own
+    parameters; where none is known, the middle of the box (the low end where that is
+    0: a delay or an extra that is off)."""
+    by_name = {e.name: e for e in experiments}
+
+    def default(p: FreeParameter) -> float:
+        if p.name not in values and measurement_signal(p.name):
+            return no_effect(p.name)
+        middle = math.sqrt(p.low * p.high) if p.log else 0.5 * (p.low + p.high)
+        return values.get(p.name, p.low if p.low == 0 else middle)
+
+    start = []
+    for p in free:
+        if p.experiment is None:
+            start.append(default(p))
+            continue
+        experiment = by_name[p.experiment]
+        guess = experiment.estimated[p.name][0]
+        start.append(guess if guess is not None else experiment.fixed.get(p.name, default(p)))
     return unit_of(free, start)
 
 
@@ -73,7 +99,9 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
         strict: bool = False, uncertainty: str = "bootstrap", replicates: int = REPLICATES,
         upstream: Sequence[Mapping[str, float]] | None = None,
         match: Mapping[str, str] | Sequence[str] | None = None, initial: Mapping[str, str] | None = None,
-        interpolation: str = "hold") -> FitResult:
+        interpolation: str = "hold", per_recording: Sequence[str] = (),
+        windows: Sequence[tuple[float, float]] | None = None, segment: float | None = None,
+        start: str = "estimated") -> FitResult:
     """Fit a model's parameters to one or more recordings jointly.
 
     Parameters
@@ -101,6 +129,16 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
         A model: the parameter a sidecar's initial value of a signal sets (default x -> x0).
     interpolation : {"hold", "linear"}
         A model: its drives between samples.
+    per_recording : sequence of names
+        Parameters estimated for each recording (or window, segment) on its own: initial
+        states (x0, v0, phi0, w0, or a model's), a sensor offset, any parameter.
+    windows, segment
+        Fit only these time windows (T0, T1) of each recording, and/or split them into
+        segments of `segment` seconds; each part is fitted as a recording of its own and
+        starts from its own initial states (recording/windows.py).
+    start : {"estimated", "measured"}
+        A later window's initial states: estimated (default), or taken from its first
+        readings (a position the first reading, a speed the slope through the first 20).
     cost : {"plain", "quantized"}
         Residuals: plain least squares or zero inside each reading's quantization step.
     global_search : GlobalOptions, optional
@@ -124,14 +162,16 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
     if preset:
         stage = model
         values = {**rig_defaults(), **check_parameters(params or {})}
-        experiments = [make_experiment(r, stage, values, drive) for r in _recordings(recordings)]
+        experiments = [make_experiment(r, stage, values, drive, per_recording, start)
+                       for r in _parts(_recordings(recordings), windows, segment)]
     else:
         user = _user_model(model)
         stage = user.name
         drives, matches, initials = mapping(drive), mapping(match), initial_map(user, initial)
         values = {**user.defaults(), **checked_values(user, params or {})}
-        read = read_for(user, _listed(recordings), drives, matches, initials)
-        experiments = model_experiments(user, read, values, drives, matches, initials, interpolation)
+        read = _parts(read_for(user, _listed(recordings), drives, matches, initials), windows, segment)
+        experiments = model_experiments(user, read, values, drives, matches, initials, interpolation,
+                                        per_recording, start)
     names = [e.name for e in experiments]
     if len(set(names)) != len(names):
         raise RecordingError(f"two recordings share the name {sorted(n for n in names if names.count(n) > 1)[0]!r}")
@@ -144,7 +184,8 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
     if preset:
         free_parameters = stage_free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values)
     else:
-        free_parameters = model_free_parameters(user, list(free or []), list(fix), dict(bounds or {}), values)
+        free_parameters = model_free_parameters(user, list(free or []), list(fix), dict(bounds or {}), values,
+                                                experiments)
     options = global_search or GlobalOptions()
     residuals = Residuals(experiments, free_parameters, values, cost)
     setup = experiments[0].setup

@@ -25,9 +25,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from pendfmu.errors import BadInput
-from pendfmu.fitting.experiment import Experiment, Setup, prepare
+from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare, through_sensor
 from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.recording import Recording, read_recording
+from pendfmu.recording.measurement import default_box, is_measurement, measurement_problem, measurement_signal
 from pendfmu.simulator.model import Model, ModelError
 
 SEARCH_DECADE = 10.0
@@ -66,7 +67,9 @@ def checked_values(model: Model, values: Mapping[str, object], where: str = "") 
     for name, value in values.items():
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise BadInput(f"{prefix}parameter {name} = {value!r} is not a number")
-        problem = model.parameter_problem(name, float(value))
+        own = name in model.names("parameter")
+        problem = (measurement_problem(name, float(value)) if not own and measurement_signal(name)
+                   else model.parameter_problem(name, float(value)))
         if problem:
             raise BadInput(f"{prefix}parameter {name} = {value!r}: {problem}")
         checked[name] = float(value)
@@ -93,7 +96,8 @@ def read_for(model: Model, recordings: Sequence[str | Path | Recording], drive: 
 
 
 def model_setup(model: Model, recording: Recording, drive: Mapping[str, str] | None,
-                match: Mapping[str, str] | None, interpolation: str = "hold") -> Setup:
+                match: Mapping[str, str] | None, interpolation: str = "hold",
+                initial: Mapping[str, str] | None = None) -> Setup:
     """The drives and matches of one recording (module docstring for the defaults)."""
     columns = set(recording.signals)
     if drive is None:
@@ -107,43 +111,77 @@ def model_setup(model: Model, recording: Recording, drive: Mapping[str, str] | N
     if not match:
         raise BadInput(f"{recording.path}: no recorded column is an output of {model.name} (outputs: "
                        f"{', '.join(model.names('output'))}); name them with match (--match OUTPUT=COLUMN)")
-    return Setup(model.name, model, {name: (column, interpolation) for name, column in drive.items()}, dict(match))
+    starts = tuple(StartState(parameter, signal) for signal, parameter in (initial or {}).items() if signal in columns)
+    return Setup(model.name, model, {name: (column, interpolation) for name, column in drive.items()}, dict(match),
+                 starts=starts)
 
 
 def model_experiments(model: Model, recordings: Sequence[Recording], values: Mapping[str, float],
                       drive: Mapping[str, str] | None, match: Mapping[str, str] | None,
-                      initial: Mapping[str, str], interpolation: str = "hold") -> list[Experiment]:
+                      initial: Mapping[str, str], interpolation: str = "hold", per_recording: Sequence[str] = (),
+                      start: str = "estimated") -> list[Experiment]:
     """One experiment per recording: its setup and its known values (sidecar included)."""
     experiments = []
     for recording in recordings:
         fixed = {**values, **recording.parameters}
         for signal, value in recording.initial.items():
             fixed[initial[signal]] = value
-        experiments.append(prepare(recording, model_setup(model, recording, drive, match, interpolation), fixed))
+        setup = model_setup(model, recording, drive, match, interpolation, initial)
+        experiments.append(prepare(recording, setup, fixed, per_recording, start))
     return experiments
 
 
 def model_free_parameters(model: Model, free: Sequence[str], fix: Sequence[str],
-                          bounds: Mapping[str, tuple[float, float]], values: Mapping[str, float]
-                          ) -> list[FreeParameter]:
-    """The user's free parameters with their search boxes (module docstring)."""
-    if not free:
+                          bounds: Mapping[str, tuple[float, float]], values: Mapping[str, float],
+                          experiments: Sequence[Experiment] = ()) -> list[FreeParameter]:
+    """The user's free parameters with their search boxes (module docstring), then each
+    recording's own (initial states with boxes from its data, others as the shared)."""
+    own = [name for e in experiments for name in e.estimated]
+    if not free and not own:
         raise BadInput(f"name the parameters of {model.name} to fit (free=... or --free NAME ...); its "
                        f"parameters: {', '.join(n for n in model.names('parameter') if '.' not in n)}")
-    for name in [*free, *fix, *bounds]:
-        model.resolve(name, "parameter")
-    unknown = [name for name in bounds if name not in free or name in fix]
+    columns = {c for e in experiments for c in (*e.match.values(), *(c for c, _ in e.setup.drives.values()))}
+    for name in [*free, *fix, *bounds, *own]:
+        if not is_measurement(name, columns):
+            model.resolve(name, "parameter")
+    valid = [n for n in free if n not in fix] + [n for n in dict.fromkeys(own) if n not in fix]
+    unknown = [name for name in bounds if name not in valid]
     if unknown:
         raise BadInput(f"bounds for {unknown[0]!r}, which this fit does not estimate; its free parameters: "
-                       f"{', '.join(n for n in free if n not in fix)}")
+                       f"{', '.join(valid)}")
     result = []
     for name in free:
-        if name in fix:
+        if name in fix or name in own:
             continue
-        low, high = bounds.get(name) or _box(model, name, values.get(name))
-        log = low > 0 and high / low >= SEARCH_DECADE  # decades apart: searched on the log scale
-        result.append(FreeParameter(name, float(low), float(high), log))
+        result.append(_free(model, name, bounds, values, experiments[:1]))
+    shared = {p.name: p for p in result}
+    for experiment in experiments:
+        for name, (_guess, low, high) in experiment.estimated.items():
+            if name in fix:
+                continue
+            if name in bounds or low is None:
+                box = _free(model, name, bounds, {**values, **experiment.fixed}, [experiment])
+                low, high = box.low, box.high
+            else:
+                low, high = through_sensor(experiment, name, low, high, shared)
+            result.append(FreeParameter(name, float(low), float(high), False, experiment.name))
     return result
+
+
+def _free(model: Model, name: str, bounds: Mapping[str, tuple[float, float]], values: Mapping[str, float],
+          experiments: Sequence[Experiment]) -> FreeParameter:
+    found = measurement_signal(name)
+    if name in bounds:
+        low, high = bounds[name]
+    elif found and experiments and name not in model.names("parameter"):
+        first = experiments[0]
+        column = found[1]
+        recorded = first.recorded(column) if column in first.recording.signals else None
+        low, high, _ = default_box(name, recorded, first.time)
+    else:
+        low, high = _box(model, name, values.get(name))
+    log = low > 0 and high / low >= SEARCH_DECADE  # decades apart: searched on the log scale
+    return FreeParameter(name, float(low), float(high), log)
 
 
 def _box(model: Model, name: str, start: float | None) -> tuple[float, float]:

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendfmu.fitting.experiment import Experiment
+from pendfmu.recording.measurement import sensed
 from pendfmu.simulator.component import FMUError
 from pendfmu.simulator.replay import InstancePool, Replay
 
@@ -130,8 +131,9 @@ class Residuals:
         self.evaluations = 0
         self.failures = 0
         self.last_failure = ""
-        self.size = sum(len(s.times) * len(e.match) for s, e in zip(self.simulators, self.experiments))
         self._target_cache: dict[tuple[int, str], tuple] = {}
+        self.size = sum(len(self._targets(k, column)[0])
+                        for k, e in enumerate(self.experiments) for column in e.match.values())
 
     def values(self, u: Sequence[float], experiment: Experiment) -> dict[str, float]:
         """All parameter values one experiment runs with."""
@@ -142,8 +144,16 @@ class Residuals:
         return values
 
     def simulate(self, u: Sequence[float], extra: tuple[str, ...] = ()) -> list[dict[str, np.ndarray]]:
-        """Per experiment, its matched outputs (and `extra` outputs) by output name."""
-        return [s.simulate(self.values(u, e), [*e.match, *extra]) for s, e in zip(self._here(), self.experiments)]
+        """Per experiment, its matched outputs as their sensors read them (measurement.py:
+        offset and scale) and `extra` outputs as simulated, by output name."""
+        results = []
+        for replay, experiment in zip(self._here(), self.experiments):
+            values = self.values(u, experiment)
+            result = replay.simulate(values, [*experiment.match, *extra])
+            for output, column in experiment.match.items():
+                result[output] = sensed(column, result[output], values)
+            results.append(result)
+        return results
 
     def __call__(self, u: Sequence[float]) -> np.ndarray:
         with self._lock:
@@ -208,20 +218,27 @@ class Residuals:
         return columns
 
     def _scaled(self, k: int, column: str, simulated: np.ndarray) -> np.ndarray:
-        recorded, scale, resolution = self._targets(k, column)
-        error = simulated - recorded
+        recorded, scale, resolution, present = self._targets(k, column)
+        error = (simulated if present is None else simulated[present]) - recorded
         if self.cost == "quantized" and resolution:
             error = np.sign(error) * np.maximum(np.abs(error) - resolution / 2, 0.0)
         return error / scale
 
-    def _targets(self, k: int, column: str) -> tuple[np.ndarray, float, float | None]:
-        """(recorded values at the simulated samples, error scale, resolution) of one
-        experiment's column: the same for every evaluation, so looked up once."""
+    def _targets(self, k: int, column: str) -> tuple[np.ndarray, float, float | None, np.ndarray | None]:
+        """(recorded values at the simulated samples, error scale, resolution, the samples
+        that are there: None for all, else their indices) of one experiment's column. A
+        missing sample (NaN, where the sidecar says so) has no residual. The same for every
+        evaluation, so looked up once."""
         key = (k, column)
         if key not in self._target_cache:
             experiment, index = self.experiments[k], self.simulators[k].index
-            self._target_cache[key] = (experiment.recorded(column)[index], experiment.scales[column],
-                                       experiment.recording.resolution(column))
+            recorded = experiment.recorded(column)[index]
+            present = None
+            if not np.all(np.isfinite(recorded)):
+                present = np.flatnonzero(np.isfinite(recorded))
+                recorded = recorded[present]
+            self._target_cache[key] = (recorded, experiment.scales[column],
+                                       experiment.recording.resolution(column), present)
         return self._target_cache[key]
 
     def sum_of_squares(self, u: Sequence[float]) -> float:

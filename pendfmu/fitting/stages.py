@@ -24,10 +24,11 @@ from functools import lru_cache
 import numpy as np
 
 from pendfmu.components import COMPONENTS
-from pendfmu.fitting.experiment import Experiment, Setup, prepare
+from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare, through_sensor
 from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.parameters import INITIAL_STATE_PARAMETERS, ParameterFileError, check_parameters, with_initial_states
 from pendfmu.recording import Recording, RecordingError
+from pendfmu.recording.measurement import default_box, is_measurement, measurement_signal
 from pendfmu.simulator.graph import Connection
 from pendfmu.simulator.model import Model
 
@@ -40,6 +41,7 @@ class Stage:
     default_free: tuple[str, ...]
     drives: tuple[str, ...]  # acceptable drive signals, preferred first ("" = none)
     estimated_initial: tuple[str, ...] = ()  # initial states estimated when a recording does not state them
+    starts: tuple[StartState, ...] = ()  # the initial states a recording can tell (estimated on request)
     # The global search's cheaper model: every k-th sample, and a longer internal step.
     # Only where the drive is slow: the cart's drive current carries the PWM ripple, which
     # a coarser sampling would alias.
@@ -50,9 +52,10 @@ class Stage:
 STAGES: dict[str, Stage] = {
     "current": Stage("current", "CurrentLoop", ("I",), ("T_i", "dIdt_max"), ("I_c",)),
     "cart": Stage("cart", "Cart", ("x",), ("eta", "k_fwc", "F_Kc", "F_Sc"), ("I_c", "I"),
-                  coarse_solver_step=4e-4),
+                  coarse_solver_step=4e-4, starts=(StartState("x0", "x"), StartState("v0", "x", rate=True))),
     "pendulum": Stage("pendulum", "Pendulum", ("phi",), ("k_fwp", "T_Kp", "T_Sp"), ("a", ""),
-                      estimated_initial=("phi",), coarse_decimate=10, coarse_solver_step=4e-4),
+                      estimated_initial=("phi",), coarse_decimate=10, coarse_solver_step=4e-4,
+                      starts=(StartState("phi0", "phi"), StartState("w0", "phi", rate=True))),
 }
 
 
@@ -110,16 +113,17 @@ def stage_setup(stage: str, drive: str) -> Setup:
         model = Model.of_components("cart", {"CurrentLoop": "CurrentLoop", "Cart": "Cart"},
                                     [Connection("CurrentLoop", "I_mean", "Cart", "I")])
         return Setup(stage, model, {"I_c": ("I_c", "hold")}, match, estimated, settling_current,
-                     spec.coarse_decimate, coarse)
+                     spec.coarse_decimate, coarse, spec.starts)
     model = Model.of_components(stage, {spec.component: spec.component})
     # a recorded current is held, as the converter's command is; a recorded current or
     # acceleration the cart follows is smooth, so linear between samples
     drives = {drive: (drive, "hold" if drive == "I_c" else "linear")} if drive else {}
-    return Setup(stage, model, drives, match, estimated, None, spec.coarse_decimate, coarse)
+    return Setup(stage, model, drives, match, estimated, None, spec.coarse_decimate, coarse, spec.starts)
 
 
 def make_experiment(recording: Recording, stage: str, parameters: Mapping[str, float],
-                    drive: str | None = None) -> Experiment:
+                    drive: str | None = None, per_recording: Sequence[str] = (), start: str = "estimated"
+                    ) -> Experiment:
     """Check that `recording` has what `stage` needs and gather its fixed values."""
     if stage not in STAGES:
         raise RecordingError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}")
@@ -133,7 +137,7 @@ def make_experiment(recording: Recording, stage: str, parameters: Mapping[str, f
     fixed = dict(parameters)
     fixed.update(check_parameters(recording.parameters, where))
     fixed = with_initial_states(fixed, recording.initial, where)
-    return prepare(recording, stage_setup(stage, chosen), fixed)
+    return prepare(recording, stage_setup(stage, chosen), fixed, per_recording, start)
 
 
 def _choose_drive(recording: Recording, spec: Stage, drive: str | None) -> str:
@@ -172,17 +176,26 @@ STICTION_RATIO = (1.0, 10.0)
 
 
 def stage_free_parameters(stage: str, experiments: list[Experiment], free: Sequence[str] | None,
-                     fix: Sequence[str], bounds: Mapping[str, tuple[float, float]],
-                     values: Mapping[str, float]) -> list[FreeParameter]:
+                          fix: Sequence[str], bounds: Mapping[str, tuple[float, float]],
+                          values: Mapping[str, float]) -> list[FreeParameter]:
+    """The stage's free parameters (its own, `free`, the recordings' own estimates) with
+    their search boxes: --bounds, else DEFAULT_BOUNDS narrowed to a decade either side
+    of a given value, stiction relative to Coulomb friction, a measurement parameter's
+    box from the data (measurement.default_box), an initial state's from its recording."""
     spec = STAGES[stage]
     component = COMPONENTS[spec.component]
+    signals = {column for e in experiments for column in (*e.match.values(), *(c for c, _ in e.setup.drives.values()))}
     names = list(spec.default_free) + [n for n in (free or []) if n not in spec.default_free]
-    for name in list(names) + list(fix):
-        if name not in component.parameters and name not in {"phi0"}:
-            raise ParameterFileError(f"stage {stage} fits parameters of {spec.component}; {name!r} is not one "
-                                     f"(valid: {', '.join(n for n in component.parameters if n != 'solver_step')})")
-    estimated = {name for experiment in experiments for name in experiment.estimated}
-    valid = [n for n in names if n not in fix] + sorted(estimated - set(fix))
+    own = {e.name: e.estimated for e in experiments}
+    per_recording = {name for estimated in own.values() for name in estimated}
+    for name in list(names) + list(fix) + sorted(per_recording):
+        known = name in component.parameters or name in {"phi0"} or is_measurement(name, signals)
+        if not known:
+            raise ParameterFileError(f"stage {stage} fits parameters of {spec.component} and the sensors' offset, "
+                                     f"scale and delay (e.g. {spec.fitted[0]}_offset, input_delay); {name!r} is not "
+                                     f"one (valid: {', '.join(n for n in component.parameters if n != 'solver_step')})")
+    names = [n for n in names if n not in per_recording]
+    valid = [n for n in names if n not in fix] + sorted(per_recording - set(fix))
     for name in bounds:
         if name not in valid:
             raise ParameterFileError(f"bounds for {name!r}, which this fit does not estimate; its free "
@@ -191,26 +204,49 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
     for name in names:
         if name in fix:
             continue
-        low, high, log = DEFAULT_BOUNDS.get(name, (None, None, False))
-        prior = values.get(name)
-        if log and prior and prior > 0 and name not in bounds:
-            # Search a decade either side of the given value: a lab engineer's prior is
-            # rarely off by more, and a box of five decades leaves the global search lost.
-            low, high = max(low, prior / SEARCH_DECADE), min(high, prior * SEARCH_DECADE)
-        relative_to = None
-        if name in bounds:
-            low, high = bounds[name]
-            log = log and low > 0
-        elif name in STICTION_OF and STICTION_OF[name] in names and STICTION_OF[name] not in fix:
-            relative_to, (low, high), log = STICTION_OF[name], STICTION_RATIO, True
-        elif name in STICTION_OF:
-            low = max(low, values.get(STICTION_OF[name], 0.0))  # below Coulomb friction it has no effect
-        if low is None or not high > low:
-            raise ParameterFileError(f"parameter {name}: give bounds as --bounds {name}=LOW:HIGH (LOW < HIGH)")
+        low, high, log, relative_to = _box(name, names, fix, bounds, values, experiments)
         result.append(FreeParameter(name, float(low), float(high), log, relative_to=relative_to))
+    shared = {p.name: p for p in result}
     for experiment in experiments:
         for name, (_guess, low, high) in experiment.estimated.items():
-            if name not in fix:  # an initial state's box: +-2 sensor steps, or what --bounds gives
-                low, high = bounds.get(name, (low, high))
-                result.append(FreeParameter(name, low, high, False, experiment.name))
+            if name in fix:
+                continue
+            if name in bounds:
+                low, high = bounds[name]
+                log = False
+            elif low is None:
+                low, high, log, _ = _box(name, [], fix, {}, {**values, **experiment.fixed}, [experiment])
+            else:  # an initial state's box from its recording, through the free sensor parameters
+                low, high = through_sensor(experiment, name, low, high, shared)
+                log = False
+            result.append(FreeParameter(name, float(low), float(high), log, experiment.name))
     return result
+
+
+def _box(name: str, names: Sequence[str], fix: Sequence[str], bounds: Mapping[str, tuple[float, float]],
+         values: Mapping[str, float], experiments: Sequence[Experiment]) -> tuple[float, float, bool, str | None]:
+    """(low, high, logarithmic, relative_to) of one parameter (stage_free_parameters)."""
+    if measurement_signal(name) is not None and name not in DEFAULT_BOUNDS:
+        if name in bounds:
+            return (*bounds[name], False, None)
+        _, column = measurement_signal(name)
+        first = experiments[0]
+        recorded = first.recorded(column) if column in first.recording.signals else None
+        return (*default_box(name, recorded, first.time), None)
+    low, high, log = DEFAULT_BOUNDS.get(name, (None, None, False))
+    prior = values.get(name)
+    if log and prior and prior > 0 and name not in bounds:
+        # Search a decade either side of the given value: a lab engineer's prior is
+        # rarely off by more, and a box of five decades leaves the global search lost.
+        low, high = max(low, prior / SEARCH_DECADE), min(high, prior * SEARCH_DECADE)
+    relative_to = None
+    if name in bounds:
+        low, high = bounds[name]
+        log = log and low > 0
+    elif name in STICTION_OF and STICTION_OF[name] in names and STICTION_OF[name] not in fix:
+        relative_to, (low, high), log = STICTION_OF[name], STICTION_RATIO, True
+    elif name in STICTION_OF:
+        low = max(low, values.get(STICTION_OF[name], 0.0))  # below Coulomb friction it has no effect
+    if low is None or not high > low:
+        raise ParameterFileError(f"parameter {name}: give bounds as --bounds {name}=LOW:HIGH (LOW < HIGH)")
+    return low, high, log, relative_to

@@ -39,7 +39,7 @@ import orjson
 
 from pendfmu.recording.schema import RecordingError
 from pendfmu.recording.model import Recording, _check_finite, _check_time
-from pendfmu.recording.sidecar import _Sidecar, _build, _select_columns
+from pendfmu.recording.sidecar import _Sidecar, _build, _missing, _select_columns
 
 
 FAST_MAX_BYTES = 256 * 1024**2
@@ -65,7 +65,7 @@ def _read_csv(path: Path, sidecar: _Sidecar) -> Recording:
     src = str(path)
     _check_time(time, src, "column 'time'", where)
     for name, values in signals.items():
-        _check_finite(values, src, f"column {name!r}", where)
+        _check_finite(values, src, f"column {name!r}", where, _missing(sidecar, name), name)
     return _build(path, time, signals, sidecar, ignored)
 
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from pendfmu.recording.schema import MAT_TIME_NAMES, RecordingError, SIGNAL_NAMES
 from pendfmu.recording.model import Recording, _check_finite, _check_length, _check_time, _sample_locator
-from pendfmu.recording.sidecar import _Sidecar, _build, _select_columns
+from pendfmu.recording.sidecar import _Sidecar, _build, _missing, _select_columns
 
 
 def _read_mat(path: Path, sidecar: _Sidecar) -> Recording:
@@ -35,7 +35,7 @@ def _read_mat(path: Path, sidecar: _Sidecar) -> Recording:
     for name in keep:
         series = by_name[name]
         _check_length(series.values, found.time, src, series.label)
-        _check_finite(series.values, src, series.label, where)
+        _check_finite(series.values, src, series.label, where, _missing(sidecar, name), name)
         signals[name] = series.values
     return _build(path, found.time, signals, sidecar, tuple(found.skipped) + ignored)
 

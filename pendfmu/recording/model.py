@@ -9,22 +9,26 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.recording.schema import RIG, RecordingError, Vocabulary, _checked_values, _noise_problem, _quantizer_problem, _resolution_problem, _suggest
+from pendfmu.recording.schema import RIG, RecordingError, Vocabulary, _checked_values, _missing_problem, _noise_problem, _quantizer_problem, _resolution_problem, _suggest
 
 
 @dataclass(frozen=True)
 class SignalInfo:
     """How one signal was measured. ``resolution`` is the quantization step Δ in the
     signal's unit (None: not stated, e.g. an unquantized or unknown sensor); ``noise`` the
-    standard deviation of the sensor noise before quantization (None: not stated)."""
+    standard deviation of the sensor noise before quantization (None: not stated).
+    ``missing`` says that some samples are missing and how they are written (``"nan"``, or
+    a marker value like -9999): those samples become NaN, and a fit leaves them out (None:
+    every sample is there, and a NaN is an error)."""
 
     resolution: float | None = None
     quantizer: str = "round"
     noise: float | None = None
+    missing: str | float | None = None  # how a missing sample is written: "nan", or a number such as -9999
 
     def __post_init__(self) -> None:
         problem = (_resolution_problem(self.resolution) or _quantizer_problem(self.quantizer)
-                   or _noise_problem(self.noise))
+                   or _noise_problem(self.noise) or _missing_problem(self.missing))
         if problem:
             raise RecordingError(f"SignalInfo: {problem}")
 
@@ -55,6 +59,7 @@ class Recording:
     ignored: tuple[str, ...] = ()
     sidecar: Path | None = None  # the sidecar file it was read with, if any
     vocabulary: Vocabulary = field(default=RIG, repr=False)  # the names it may use (schema.Vocabulary)
+    span: tuple[float, float] | None = None  # the time window of the file this recording was cut to (window())
 
     def __post_init__(self) -> None:
         path = None if self.path is None else Path(self.path)
@@ -71,7 +76,11 @@ class Recording:
                                      f"valid: {', '.join(known)}")
             values = _as_vector(values, src, repr(name))
             _check_length(values, time, src, repr(name))
-            _check_finite(values, src, repr(name), where)
+            info = dict(self.signal_info).get(name)
+            missing = info.missing if isinstance(info, SignalInfo) else None
+            if missing is not None and missing != "nan":
+                values[values == missing] = np.nan
+            _check_finite(values, src, repr(name), where, missing is not None, name)
             signals[name] = values
         if not signals:
             raise RecordingError(f"{src}: no signals, only time")
@@ -91,6 +100,27 @@ class Recording:
         object.__setattr__(self, "parameters", parameters)
         object.__setattr__(self, "initial", initial)
         object.__setattr__(self, "ignored", tuple(self.ignored))
+
+    def window(self, start: float, stop: float) -> Recording:
+        """The samples from `start` to `stop` [s] (both included) as a recording of their
+        own, e.g. one segment of a long run. Its sidecar's "initial" values belong to the
+        run's first sample, so a window that starts later does not know them."""
+        step = float(np.median(np.diff(self.time))) if len(self.time) > 1 else 0.0
+        keep = (self.time >= start - 1e-9 * step) & (self.time <= stop + 1e-9 * step)
+        if keep.sum() < 2:
+            raise RecordingError(f"{self.source}: the window {start:g} to {stop:g} s holds {int(keep.sum())} samples; "
+                                 f"the recording runs from {self.time[0]:g} to {self.time[-1]:g} s")
+        first = int(np.argmax(keep))
+        return Recording(self.path, self.time[keep], {n: v[keep] for n, v in self.signals.items()}, self.experiment,
+                         self.signal_info, self.parameters, self.initial if first == 0 else {}, self.ignored,
+                         self.sidecar, self.vocabulary, (float(self.time[keep][0]), float(self.time[keep][-1])))
+
+    @property
+    def label(self) -> str:
+        """The recording's name in results and reports: its file's stem, and for a window
+        the window's time span."""
+        name = Path(self.path).stem if self.path else "recording"
+        return name if self.span is None else f"{name}@{self.span[0]:g}-{self.span[1]:g}s"
 
     @property
     def source(self) -> str:
@@ -170,14 +200,19 @@ def _check_time(time: np.ndarray, src: str, label: str, where: Callable[[int], s
                              f"after {before!r} at {where(i)}")
 
 
-def _check_finite(values: np.ndarray, src: str, label: str, where: Callable[[int], str]) -> None:
-    """No NaN or Inf: the fit compares every sample, and a gap is not a value."""
-    bad = np.flatnonzero(~np.isfinite(values))
+def _check_finite(values: np.ndarray, src: str, label: str, where: Callable[[int], str],
+                  missing_allowed: bool = False, signal: str | None = None) -> None:
+    """No NaN or Inf: the fit compares every sample, and a gap is not a value, unless the
+    sidecar says the signal has missing samples (then NaN marks one; Inf is still wrong).
+    `signal`, where given, is named in the hint how to say so."""
+    bad = np.flatnonzero(np.isinf(values) if missing_allowed else ~np.isfinite(values))
     if bad.size:
         i = int(bad[0])
         what = "NaN" if np.isnan(values[i]) else "Inf"
         more = f" (and {bad.size - 1} more)" if bad.size > 1 else ""
-        raise RecordingError(f"{src}: {what} in {label} at {where(i)}{more}")
+        hint = (f'; if it marks a missing sample, say so in the sidecar: "signals": {{"{signal}": '
+                f'{{"missing": "nan"}}}}' if what == "NaN" and signal else "")
+        raise RecordingError(f"{src}: {what} in {label} at {where(i)}{more}{hint}")
 
 
 def _check_length(values: np.ndarray, time: np.ndarray, src: str, label: str) -> None:

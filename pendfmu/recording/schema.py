@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pendfmu.components import COMPONENTS, parameter_table
 from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
+from pendfmu.recording.measurement import is_measurement, measurement_problem
 
 
 def _signal_names() -> tuple[str, ...]:
@@ -72,7 +73,7 @@ MAT_TIME_NAMES: tuple[str, ...] = ("time", "t", "tout")
 SIDECAR_KEYS: tuple[str, ...] = ("experiment", "signals", "parameters", "initial", "comment")
 
 
-SIGNAL_INFO_KEYS: tuple[str, ...] = ("resolution", "quantizer", "noise", "ignore")
+SIGNAL_INFO_KEYS: tuple[str, ...] = ("resolution", "quantizer", "noise", "missing", "ignore")
 
 
 class RecordingError(BadInput):
@@ -97,7 +98,10 @@ def _checked_values(values: Mapping[str, float], problem_of, src: str, what: str
 def _parameter_problem(name: str, value: float) -> str | None:
     """Why `value` cannot be parameter `name` (unknown, not finite, out of range), or None.
     m_p and l belong to two components with different ranges (the Cart takes m_p = 0,
-    pendulum removed); a value is fine if one of them accepts it."""
+    pendulum removed); a value is fine if one of them accepts it. A signal's measurement
+    parameters (measurement.py: phi_offset, x_scale, input_delay) are valid too."""
+    if is_measurement(name, SIGNAL_NAMES):
+        return measurement_problem(name, value)
     if name not in PARAMETER_NAMES:
         return f"unknown parameter{_suggest(name, PARAMETER_NAMES)}; valid: {', '.join(PARAMETER_NAMES)}"
     if not math.isfinite(value):
@@ -119,6 +123,14 @@ def _noise_problem(noise: float | None) -> str | None:
         return None
     if not math.isfinite(noise) or noise < 0:
         return f"noise {noise!r} must be a finite standard deviation >= 0"
+    return None
+
+
+def _missing_problem(missing) -> str | None:
+    if missing is None or missing == "nan":
+        return None
+    if isinstance(missing, bool) or not isinstance(missing, numbers.Real) or not math.isfinite(missing):
+        return f'missing must be "nan" or the finite number that marks a missing sample, got {missing!r}'
     return None
 
 
@@ -154,6 +166,19 @@ def _bytes(size: int) -> str:
     if size < 1024**3:
         return f"{size / 1024**2:.1f} MB"
     return f"{size / 1024**3:.2f} GB"
+
+
+@dataclass(frozen=True)
+class WithMeasurements:
+    """A model's parameter check that also takes its signals' measurement parameters."""
+
+    problem_of: Callable[[str, float], str | None]
+    signals: tuple[str, ...]
+
+    def __call__(self, name: str, value: float) -> str | None:
+        if is_measurement(name, self.signals):
+            return measurement_problem(name, value)
+        return self.problem_of(name, value)
 
 
 RIG = Vocabulary(SIGNAL_NAMES, _parameter_problem, _initial_problem)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.recording.schema import RIG, RecordingError, SIDECAR_KEYS, SIGNAL_INFO_KEYS, Vocabulary, _noise_problem, _quantizer_problem, _resolution_problem, _suggest
+from pendfmu.recording.schema import RIG, RecordingError, SIDECAR_KEYS, SIGNAL_INFO_KEYS, Vocabulary, _missing_problem, _noise_problem, _quantizer_problem, _resolution_problem, _suggest
 from pendfmu.recording.model import Recording, SignalInfo
 
 
@@ -97,7 +97,17 @@ def _read_signal_entry(sidecar: _Sidecar, name: str, entry, src: str) -> None:
     if problem:
         raise RecordingError(f"{src}: {key}.quantizer: {problem}")
     noise = _optional_number(entry, "noise", _noise_problem, f"{src}: {key}")
-    sidecar.signal_info[name] = SignalInfo(resolution, quantizer, noise)
+    missing = entry.get("missing")
+    problem = _missing_problem(missing)
+    if problem:
+        raise RecordingError(f"{src}: {key}.missing: {problem}")
+    sidecar.signal_info[name] = SignalInfo(resolution, quantizer, noise, missing)
+
+
+def _missing(sidecar: _Sidecar, name: str) -> bool:
+    """Whether the sidecar says signal `name` has missing samples (NaN allowed)."""
+    info = sidecar.signal_info.get(name)
+    return info is not None and info.missing is not None
 
 
 def _optional_number(entry: dict, name: str, problem_of: Callable[[float | None], str | None],

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
-from pendfmu.recording.schema import Vocabulary
+from pendfmu.recording.schema import Vocabulary, WithMeasurements
 from pendfmu.simulator.component import once_per_process, unpacked_fmu
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
 
@@ -221,7 +221,8 @@ class Model:
         the extra `columns` a fit maps them to, its parameters in the sidecar (checked
         against the declared ranges) and the signals in `initial` (mapped to parameters)."""
         signals = dict.fromkeys([*self.names("input"), *self.names("output"), *columns])
-        return Vocabulary(tuple(signals), self.parameter_problem, _KnownNames(tuple(initial)))
+        return Vocabulary(tuple(signals), WithMeasurements(self.parameter_problem, tuple(signals)),
+                          _KnownNames(tuple(initial)))
 
 
 _NOUN = {"parameter": "parameter", "input": "input", "output": "output"}

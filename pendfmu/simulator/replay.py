@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendfmu.errors import FMUError
+from pendfmu.recording.measurement import INPUT_DELAY
 from pendfmu.simulator.component import PROCESS_POOL, ComponentFMU, InstancePool, pooled_instance
 from pendfmu.simulator.model import Model, ModelError, Port
 from pendfmu.simulator.native import run_single
@@ -99,8 +100,9 @@ class Replay:
         if self.coupled:
             return self._coupled(values, {name: self.model.port(name, "output") for name in outputs})
         wanted, runs = self._layout(tuple(outputs))
-        points, samples = self._grid(values)
-        grid_key = self._times_key if points is self.times else _grid_key(points)
+        delay = float(values.get(INPUT_DELAY, 0.0))
+        points, samples = self._grid(values, delay)
+        grid_key = self._times_key if points is self.times else _grid_key(points, delay)
         per = self.model.split(values)
         signals: dict[Port, np.ndarray] = {}
         upstream: dict[str, bytes] = {}
@@ -111,7 +113,7 @@ class Replay:
             if kept is not None and kept[0] == key and all(p in kept[1] for p in needed):
                 signals.update(kept[1])
                 continue
-            result = self._run(name, per[name], points, samples, signals, needed)
+            result = self._run(name, per[name], points, samples, signals, needed, delay)
             self._kept[name] = (key, result)
             signals.update(result)
         return {name: signals[port][samples] for name, port in wanted.items()}
@@ -130,16 +132,24 @@ class Replay:
             layout = self._layouts[outputs] = (wanted, runs)
         return layout
 
-    def _grid(self, values: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    def _grid(self, values: Mapping[str, float], delay: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """The communication points and the index of each sample among them: the samples;
+        with an input delay also the instants the delayed samples arrive (so that a held
+        drive changes exactly then, and the fit's cost is smooth in the delay)."""
+        if delay:
+            if self.refine is not None:
+                raise ModelError(f"{self.model.name}: an input delay needs the drive on the recording's own grid; "
+                                 f"this model refines it (drive the cart by I or u instead of I_c)")
+            return _delayed_grid(self.times, delay)
         if self.refine is None:
             return self.times, np.arange(len(self.times))
         drives = {str(port): drive.values for port, drive in self.drives.items()}
         return self.refine(self.times, drives, values)
 
     def _run(self, name: str, parameters: Mapping[str, float], points: np.ndarray, samples: np.ndarray,
-             signals: Mapping[Port, np.ndarray], outputs: list[Port]) -> dict[Port, np.ndarray]:
+             signals: Mapping[Port, np.ndarray], outputs: list[Port], delay: float = 0.0) -> dict[Port, np.ndarray]:
         fmu = self._fmu(name, parameters)
-        names, columns, slopes = self._driven(name, fmu, points, samples)
+        names, columns, slopes = self._driven(name, fmu, points, samples, delay)
         names, columns, slopes = list(names), list(columns), list(slopes)
         for c in self.model.connections:
             if c.target == name:
@@ -159,9 +169,10 @@ class Replay:
                            messages=fmu.messages[-3:])
         return {port: result[:, j] for j, port in enumerate(outputs)}
 
-    def _driven(self, name: str, fmu: ComponentFMU, points: np.ndarray, samples: np.ndarray):
+    def _driven(self, name: str, fmu: ComponentFMU, points: np.ndarray, samples: np.ndarray, delay: float = 0.0):
         """(input names, columns on the grid, slopes or None where held) of the instance's
-        recorded drives; on the recording's own grid the same for every run, so kept."""
+        recorded drives, `delay` seconds late; on the recording's own grid the same for
+        every run, so kept."""
         if points is self.times and name in self._drive_columns:
             return self._drive_columns[name]
         steps = np.diff(points)
@@ -173,7 +184,8 @@ class Replay:
         for port, drive in self.drives.items():
             if port.instance == name:
                 names.append(port.variable)
-                column = _on_grid(drive, self.times, points, samples)
+                column = _delayed(drive, self.times, points, delay) if delay else _on_grid(drive, self.times,
+                                                                                           points, samples)
                 columns.append(column)
                 linear = drive.interpolation == "linear"
                 if linear and not fmu.can_interpolate_inputs:
@@ -191,6 +203,9 @@ class Replay:
         FMU-state rollback), one communication step per sample, native engine."""
         from pendfmu.simulator.master import ExternalInput, Master
 
+        if values.get(INPUT_DELAY):
+            raise ModelError(f"{self.model.name}: an input delay is not available for a model whose components "
+                             f"feed each other (it is run by the co-simulation master on the samples' grid)")
         per = self.model.split(values)
         if self._master is None:
             step = float(np.max(np.diff(self.times))) if len(self.times) > 1 else 1.0
@@ -235,9 +250,37 @@ def _on_grid(drive: Drive, times: np.ndarray, points: np.ndarray, samples: np.nd
     return drive.values[np.searchsorted(samples, np.arange(len(points)), side="right") - 1]
 
 
-def _grid_key(points: np.ndarray) -> bytes:
-    """A digest of a time grid (the recording's own is hashed once per Replay)."""
-    return hashlib.sha256(np.ascontiguousarray(points).tobytes()).digest()
+def _delayed_grid(times: np.ndarray, delay: float) -> tuple[np.ndarray, np.ndarray]:
+    """The samples and the instants t_k + delay inside the recording, merged (an arrival
+    within a billionth of a step of a sample is that sample), with each sample's index."""
+    tolerance = 1e-9 * (float(times[-1] - times[0]) / max(len(times) - 1, 1))
+    arrivals = times + delay
+    arrivals = arrivals[arrivals < times[-1]]
+    near = np.searchsorted(times, arrivals)
+    distinct = np.ones(len(arrivals), bool)
+    for side in (near - 1, near):
+        inside = (side >= 0) & (side < len(times))
+        distinct[inside] &= np.abs(times[side[inside]] - arrivals[inside]) > tolerance
+    points = np.union1d(times, arrivals[distinct])
+    return points, np.searchsorted(points, times)
+
+
+def _delayed(drive: Drive, times: np.ndarray, points: np.ndarray, delay: float) -> np.ndarray:
+    """A drive `delay` seconds late at the communication points: held, the last sample that
+    has arrived (before the first arrives, the first); linear, interpolated at t - delay."""
+    if drive.interpolation == "linear":
+        return np.interp(points - delay, times, drive.values)
+    tolerance = 1e-9 * (float(times[-1] - times[0]) / max(len(times) - 1, 1))
+    arrived = np.searchsorted(times + delay, points + tolerance, side="right") - 1
+    return drive.values[np.maximum(arrived, 0)]
+
+
+def _grid_key(points: np.ndarray, delay: float = 0.0) -> bytes:
+    """A digest of a time grid and the drives' delay (the recording's own grid is hashed
+    once per Replay)."""
+    digest = hashlib.sha256(np.ascontiguousarray(points).tobytes())
+    digest.update(repr(delay).encode())
+    return digest.digest()
 
 
 def _key(parameters: Mapping[str, float], upstream: Sequence[bytes], grid: bytes) -> bytes:
