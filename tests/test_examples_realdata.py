@@ -18,6 +18,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import realdata as rd
@@ -91,3 +92,116 @@ def test_run_writes_the_result(tmp_path, name):
         assert document["benchmark"] == pytest.approx({"M": p["m_c"] / p["eta"], "Fv": p["k_fwc"] / p["eta"],
                                                        "Fc": p["F_Kc"] / p["eta"],
                                                        "offset": convert.EMPS_PUBLISHED["OF1"]})
+
+
+# ---------------------------------------------------------------- friction-identification
+
+CARRIAGE = "friction-identification"
+# The carriage's straight-line fit before v_Sc was freed (convert.build_line, seed 0):
+# eta 0.9929, k_fwc 64.18 N s/m, F_Kc = F_Sc 33.59 N (F_Sc at its bound).
+LINE = {"eta": 0.9929, "k_fwc": 64.18, "F_Kc": 33.59, "F_Sc": 33.59}
+
+
+@pytest.mark.parametrize("extra", [
+    {"F_Sc": 28.0, "F_Kc": 41.7, "k_fwc": 46.6, "v_Sc": 0.137},  # the carriage's fit: rising to F_K
+    {"F_Sc": 3.0, "F_Kc": 1.0, "k_fwc": 2.0, "v_Sc": 0.05, "dk_fwc": 0.5, "dF_Kc": 0.2},  # falling, asymmetric
+    {"F_Sc": 3.0, "F_Kc": 1.0, "k_fwc": 2.0},  # no Stribeck: the straight line
+])
+def test_the_examples_friction_law_is_the_cart_fmus(extra):
+    """convert.sliding_friction, the example's own evaluation of friction.h's law, against the
+    Cart FMU's friction force F_F at every sliding sample of a run forwards and backwards (a
+    1 kg cart under a sine force of 3 (F_S + F_K), 0.5 s period, 2 s): the same formula, so
+    the same numbers to rounding (measured difference below 1e-13 N)."""
+    from pendfmu.simulator import ComponentFMU
+
+    convert = rd.load_example(CARRIAGE)
+    parameters = dict(m_c=1.0, m_p=0.0, eta=1.0, k_M=1.0, k_D=1.0, **extra)
+    amplitude = 3.0 * (extra["F_Sc"] + extra["F_Kc"])
+    times = np.linspace(0.0, 2.0, 4001)
+    with ComponentFMU("Cart", parameters) as cart:
+        run = cart.run(times, ["v", "F_F", "mode"], inputs=lambda t: {"I": amplitude * math.sin(4 * math.pi * t)})
+    sliding = run["mode"] != 0
+    assert np.count_nonzero(run["v"][sliding] > 0.01) > 500 and np.count_nonzero(run["v"][sliding] < -0.01) > 500
+    expected = convert.sliding_friction(parameters, run["v"][sliding])
+    assert np.max(np.abs(run["F_F"][sliding] - expected)) < 1e-9 * amplitude
+
+
+def test_the_published_curve_is_the_papers_model():
+    """convert.published_friction against SOURCE.txt's model worked by hand: 10 N at v -> 0,
+    the hump's top c3 + c2 c4 at v = c4, the straight line c1 + c2 v once the hump has
+    decayed (e^-48 at 0.66 m/s)."""
+    convert = rd.load_example(CARRIAGE)
+    assert convert.published_friction(np.array([1e-12]))[0] == pytest.approx(10.0)
+    assert convert.published_friction(np.array([0.01352]))[0] == pytest.approx(29.63 + 67.44 * 0.01352)
+    assert convert.published_friction(np.array([0.66]))[0] == pytest.approx(10.0 + 67.44 * 0.66)
+
+
+def flat(tree: dict, prefix: str = "") -> dict:
+    """A nested result's leaves, keyed by their path (pytest.approx takes flat mappings)."""
+    leaves = {}
+    for key, value in tree.items():
+        leaves.update(flat(value, f"{prefix}{key}.") if isinstance(value, dict) else {prefix + key: value})
+    return leaves
+
+
+@pytest.fixture(scope="module")
+def carriage_result(tmp_path_factory):
+    convert = rd.load_example(CARRIAGE)
+    if not rd.available(*convert.SOURCES):
+        pytest.skip(f"real data absent: {', '.join(map(str, convert.SOURCES))}")
+    outdir = tmp_path_factory.mktemp(CARRIAGE)
+    done = run(CARRIAGE, outdir)
+    assert done.returncode == 0, done.stderr
+    return convert, json.loads((outdir / "result.json").read_text())
+
+
+def test_carriage_stribeck_fit_is_physical_and_identified(carriage_result):
+    """Issue 14: the fit frees v_Sc. Every parameter in its physical range with a finite
+    interval, none at a search bound; the friction at v -> 0 (F_Sc 28.0 N) lies below the
+    level far from zero speed (F_Kc 41.7 N): the curve rises, as the data-implied friction of
+    the drive does (20 N in the lowest bin, 36 N at 0.075 m/s), and it is identified (its
+    interval excludes F_Kc); v_Sc inside the measured speeds."""
+    convert, document = carriage_result
+    p, ci = document["parameters"], document["ci95"]
+    assert set(document["interval_method"]) == {"eta", "k_fwc", "F_Kc", "F_Sc", "v_Sc"}
+    assert not [flag for flags in document["flags"].values() for flag in flags if "bound" in flag]
+    assert 0.9 < p["eta"] <= 1.0 and ci["eta"][1] <= 1.0
+    assert all(ci[name][0] > 0 for name in ("k_fwc", "F_Kc", "F_Sc", "v_Sc"))
+    assert ci["F_Sc"][1] < ci["F_Kc"][0]
+    assert 0.003 < p["v_Sc"] < 0.66
+
+
+def test_carriage_stribeck_curve_against_the_published_and_the_data(carriage_result):
+    """The result's friction_comparison (convert.friction_comparison), recomputed here from
+    the fitted parameters, and held to what the data say.
+
+    * The data-implied friction of the drive (the force the fit sees, minus 24.7 kg a): the
+      Stribeck curve follows it to 1.32 N rms (measured); the straight line to 2.98 N. Bound:
+      2.0 N, between the two: a fit that fell back to a line fails.
+    * The published curve against the load cell's data-implied friction (the authors' own
+      force): 4.76 N rms measured; bound 6 N. This holds the data-implied friction (scale,
+      filter, alignment) to the authors' result, independently of pendfmu's fit.
+    * Fitted against published: 21.87 N rms, 26.07 N at most (the line: 21.69, 23.14). The
+      Stribeck curve is not closer to the published one, and cannot be: the drive includes
+      the drive train's friction before the load cell (drive minus load-cell implied friction:
+      23.6 N rms over the bins, 5.7 N near rest to 39 N at the top speed). So the test holds
+      the difference to that gap: within 3 N of it (measured 1.7 N; each curve's own misfit,
+      1.3 and 4.8 N, bounds it by about 6 N)."""
+    convert, document = carriage_result
+    comparison = document["friction_comparison"]
+    assert flat(comparison) == pytest.approx(flat(convert.friction_comparison(document["parameters"])))
+    scope, load_cell = convert.read_servo_scope(), convert.read_load_cell()
+    implied = convert.implied_friction(scope, load_cell)
+    grid = convert.speed_grid(scope)
+    fitted = convert.sliding_friction(document["parameters"], grid)
+    assert comparison["fitted_minus_published"]["rms"] == pytest.approx(
+        math.sqrt(np.mean((fitted - convert.published_friction(grid)) ** 2)))
+    data = comparison["data_implied"]
+    line = convert.friction_comparison(LINE, scope, load_cell)["data_implied"]["fitted_minus_drive"]["rms"]
+    print(f"\ncarriage: fitted-published {comparison['fitted_minus_published']}, fitted-drive "
+          f"{data['fitted_minus_drive']['rms']:.3f} (line {line:.3f}), published-load cell "
+          f"{data['published_minus_load_cell']['rms']:.3f}")
+    assert data["fitted_minus_drive"]["rms"] < 2.0 < line
+    assert data["published_minus_load_cell"]["rms"] < 6.0
+    gap = math.sqrt(np.mean((implied["drive"] - implied["load_cell"]) ** 2))
+    assert abs(comparison["fitted_minus_published"]["rms"] - gap) < 3.0

@@ -387,5 +387,10 @@ def test_the_stages_fit_the_extras_stribeck_in_its_decades_offsets_with_bounds(c
                                                      {"F_Oc": (-5.0, 5.0)}, values)}
     assert (free["v_Sc"].low, free["v_Sc"].high, free["v_Sc"].log) == (1e-4, 1.0, True)
     assert (free["F_Oc"].low, free["F_Oc"].high, free["F_Oc"].log) == (-5.0, 5.0, False)
+    # with a Stribeck speed, stiction below Coulomb friction shapes the curve (it rises to F_K):
+    # its ratio to F_Kc reaches down a decade; without one it starts at 1 (no effect below)
+    assert (free["F_Sc"].relative_to, free["F_Sc"].low, free["F_Sc"].high) == ("F_Kc", 0.1, 10.0)
+    plain = {p.name: p for p in stage_free_parameters("cart", experiments, None, [], {}, values)}
+    assert (plain["F_Sc"].relative_to, plain["F_Sc"].low, plain["F_Sc"].high) == ("F_Kc", 1.0, 10.0)
     with pytest.raises(ParameterFileError, match="--bounds dF_Kc=LOW:HIGH"):
         stage_free_parameters("cart", experiments, ["dF_Kc"], [], {}, values)

@@ -173,6 +173,18 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
 SEARCH_DECADE = 10.0  # default search box: the given value divided and multiplied by this
 STICTION_OF = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> the Coulomb friction it is fitted relative to
 STICTION_RATIO = (1.0, 10.0)
+# With a Stribeck speed (free, or given > 0) the stiction is the sliding friction's level at
+# v -> 0, and a level below the Coulomb friction is a curve that rises to it (friction.h):
+# the ratio's box then reaches down a decade too. Without one, stiction below Coulomb
+# friction has no effect, and the box starts at 1.
+STRIBECK_OF = {"F_Sc": "v_Sc", "T_Sp": "w_Sp"}  # stiction -> the Stribeck speed that shapes it
+STRIBECK_RATIO = (0.1, 10.0)
+
+
+def _stribeck(stiction: str, names: Sequence[str], fix: Sequence[str], values: Mapping[str, float]) -> bool:
+    """Whether the stiction's joint has a Stribeck speed: fitted, or given above 0."""
+    speed = STRIBECK_OF[stiction]
+    return (speed in names and speed not in fix) or values.get(speed, 0.0) > 0.0
 
 
 def stage_free_parameters(stage: str, experiments: list[Experiment], free: Sequence[str] | None,
@@ -244,8 +256,9 @@ def _box(name: str, names: Sequence[str], fix: Sequence[str], bounds: Mapping[st
         low, high = bounds[name]
         log = log and low > 0
     elif name in STICTION_OF and STICTION_OF[name] in names and STICTION_OF[name] not in fix:
-        relative_to, (low, high), log = STICTION_OF[name], STICTION_RATIO, True
-    elif name in STICTION_OF:
+        ratio = STRIBECK_RATIO if _stribeck(name, names, fix, values) else STICTION_RATIO
+        relative_to, (low, high), log = STICTION_OF[name], ratio, True
+    elif name in STICTION_OF and not _stribeck(name, names, fix, values):
         low = max(low, values.get(STICTION_OF[name], 0.0))  # below Coulomb friction it has no effect
     if low is None or not high > low:
         raise ParameterFileError(f"parameter {name}: give bounds as --bounds {name}=LOW:HIGH (LOW < HIGH)")
