@@ -21,7 +21,7 @@ from pendfmu.fitting.experiment import Experiment
 from pendfmu.fitting.models import (checked_values, initial_map, load_model, mapping, model_experiments,
                                     model_free_parameters, read_for)
 from pendfmu.fitting.optimizer import GlobalOptions, optimize
-from pendfmu.fitting.plausibility import SuspiciousData, check_experiment
+from pendfmu.fitting.plausibility import SuspiciousData, check_experiment, self_locking_switch, viscous_twins
 from pendfmu.fitting.progress import Progress
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.fitting.result import ExperimentFit, FitResult, flag_warnings, nrmse
@@ -143,6 +143,10 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
         raise SuspiciousData(data_warnings)
     if preset:
         free_parameters = stage_free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values)
+        for warning in self_locking_switch(free_parameters, experiments) + viscous_twins(free_parameters, experiments):
+            data_warnings.append(warning)
+            if warn:
+                warn(warning)
     else:
         free_parameters = model_free_parameters(user, list(free or []), list(fix), dict(bounds or {}), values)
     options = global_search or GlobalOptions()
