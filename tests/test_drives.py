@@ -65,7 +65,8 @@ def test_defaults_are_off():
 
 def test_explicit_defaults_and_a_silent_command_change_nothing():
     """The drive parameters at their defaults given explicitly, and a command u that k_u = 0
-    ignores, leave every output bit for bit as the default run (a current pulse, stick-slip)."""
+    ignores (with its derivatives, which must not cost the cart its exact step), leave every
+    output bit for bit as the default run (a current pulse, stick-slip)."""
     times = np.linspace(0.0, 0.6, 601)
     current = lambda t: 1.5 if 0.05 <= t < 0.4 else 0.0  # noqa: E731
     with ComponentFMU("Cart", CART_ALONE) as cart:
@@ -73,7 +74,8 @@ def test_explicit_defaults_and_a_silent_command_change_nothing():
     explicit = {**CART_ALONE, "k_u": 0.0, "k_emf": 0.0, "tau_e": 0.0, "eta_back": -1.0}
     with ComponentFMU("Cart", explicit) as cart:
         same = cart.run(times, ["x", "v", "a", "F_A", "mode", "t_mode"],
-                        inputs=lambda t: {"I": current(t), "u": 0.7 * math.sin(9.0 * t)})
+                        inputs=lambda t: {"I": current(t), "u": 0.7 * math.sin(9.0 * t)},
+                        derivatives=lambda t: {"u": [6.3 * math.cos(9.0 * t), -56.7 * math.sin(9.0 * t)]})
     assert np.count_nonzero(np.diff(base["mode"])) >= 2  # it moves and stops: not a vacuous check
     for name in base:
         assert np.array_equal(base[name], same[name]), name
@@ -270,6 +272,34 @@ def test_the_rig_feeds_the_pendulum_back_only_to_a_back_drivable_screw():
     assert len(rig_connections(0.4)) == 2 and len(rig_connections(0.7)) == 5
     assert len(rig_connections(0.7, 0.0)) == 2  # eta_back = 0: self-locking whatever eta
     assert len(rig_connections(0.4, 0.3)) == 5  # its own back-drive efficiency
+
+
+RIG_TIMES = np.arange(0, 10001) * 2e-4
+RIG_PULSE = ([0.0, 0.05, 0.4], [0.0, 1.5, 0.0])  # command current: a 1.5 A pulse
+
+
+@pytest.mark.parametrize("eta, eta_back", [(0.7, 0.0), (0.4, 0.3)], ids=["self-locking at 0.7", "back-drivable at 0.4"])
+def test_the_rig_with_eta_back_matches_the_reference(eta, eta_back):
+    """Current loop -> cart (<-> pendulum), a current pulse from the pendulum released at
+    pi + 0.3, co-simulated with rig_system (which connects the pendulum back exactly when
+    A > 0) against the reference rig with the same eta_back, within test_friction_extras' rig
+    bounds (2e-5 m, 1e-3 rad); and the two differ from MODEL.md's switch at the same eta."""
+    from pendfmu.fmubuild.compiler import FMUS_DIR
+    from pendfmu.simulator.master import ExternalInput, Master
+    from pendfmu.ssp import rig_system
+
+    def cosimulate(parameters):
+        system = rig_system(eta, FMUS_DIR, {"eta": eta, "phi0": math.pi + 0.3, **parameters})
+        pulse = ExternalInput(np.array(RIG_PULSE[0]), np.array(RIG_PULSE[1]), "hold")
+        return Master.from_system(system).run(RIG_TIMES, ["Cart.x", "Pendulum.phi"], {"CurrentLoop.I_c": pulse})
+
+    frame = cosimulate({"eta_back": eta_back})
+    reference = rr.simulate_rig({"eta": eta, "eta_back": eta_back}, rr.Steps(*RIG_PULSE), RIG_TIMES,
+                                {"phi0": math.pi + 0.3})
+    assert np.max(np.abs(frame["Cart.x"] - reference["x"].to_numpy())) <= 2e-5
+    assert np.max(np.abs(frame["Pendulum.phi"] - reference["phi"].to_numpy())) <= 1e-3
+    switch = cosimulate({})
+    assert np.max(np.abs(frame["Cart.x"] - switch["Cart.x"])) > 1e-4
 
 
 def test_a_self_locking_screw_at_high_eta_takes_the_exact_step():

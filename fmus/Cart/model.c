@@ -84,7 +84,7 @@ void model_initial_states(Instance *inst) {
 static bool linear_over_step(const Instance *inst, double *slope, double *slope_u) {
     *slope_u = 0.0;
     return !(back_drive(inst) > 0.0) && !(R(v_Sc) > 0.0) && input_is_linear(inst, VR_I, slope) &&
-           !(R(tau_e) > 0.0) && input_is_linear(inst, VR_u, slope_u);
+           (!command_path(inst) || (!(R(tau_e) > 0.0) && input_is_linear(inst, VR_u, slope_u)));
 }
 
 /* The largest rate |d(F_F)/dv| the sliding law can have: the larger viscous coefficient,
