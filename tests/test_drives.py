@@ -89,7 +89,8 @@ def test_eta_back_zero_below_the_switch_is_the_default():
     for extra in ({}, {"eta_back": 0.0}):
         with ComponentFMU("Cart", extra) as cart:
             runs.append(cart.run(times, ["x", "v", "F_A"], inputs=lambda t: {
-                "I": 1.5, "phi": math.pi + 0.3 * math.sin(8 * t), "w": 2.4 * math.cos(8 * t), "alpha": -19.2 * math.sin(8 * t)}))
+                "I": 1.5, "phi": math.pi + 0.3 * math.sin(8 * t), "w": 2.4 * math.cos(8 * t),
+                "alpha": -19.2 * math.sin(8 * t)}))
     for name in ("x", "v", "F_A"):
         assert np.array_equal(runs[0][name], runs[1][name])
 
@@ -449,3 +450,20 @@ def test_a_fit_warns_when_eta_straddles_the_self_locking_switch(tmp_path, capsys
             assert "eta_back=0" in warnings[0] and "0.5" in warnings[0]
     narrow = stage_free_parameters("cart", [experiment], ["eta"], [], {"eta": (0.3, 0.45)}, values)
     assert self_locking_switch(narrow, [experiment]) == []
+
+
+def test_a_fit_warns_when_back_emf_and_viscous_friction_are_both_free(tmp_path):
+    """Without a lag only k_fwc + eta k_emf shows in x: freeing both is warned about; with
+    tau_e free (or set) the two separate and there is no warning."""
+    from pendfmu.fitting.plausibility import viscous_twins
+    from pendfmu.fitting.stages import make_experiment, stage_free_parameters
+    from pendfmu.recording import read_recording
+
+    path = write_u_recording(tmp_path / "u.csv", DRIVE_TRUTH, stop=0.1)
+    values = {**rig_defaults(), "k_u": 60.0, "k_emf": 30.0, "tau_e": 0.0}
+    experiment = make_experiment(read_recording(path), "cart", values, "u")
+    both = stage_free_parameters("cart", [experiment], ["k_fwc"], [], {}, values)
+    assert "k_fwc + eta*k_emf" in viscous_twins(both, [experiment])[0]
+    assert viscous_twins(stage_free_parameters("cart", [experiment], [], [], {}, values), [experiment]) == []
+    lagged = stage_free_parameters("cart", [experiment], ["k_fwc", "tau_e"], [], {"tau_e": (1e-4, 1.0)}, values)
+    assert viscous_twins(lagged, [experiment]) == []

@@ -143,7 +143,9 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
         raise SuspiciousData(data_warnings)
     if preset:
         free_parameters = stage_free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values)
-        for warning in self_locking_switch(free_parameters, experiments) + viscous_twins(free_parameters, experiments):
+        # warnings about the fit's set-up (README, Drives): printed as the data's are
+        setup_warnings = self_locking_switch(free_parameters, experiments) + viscous_twins(free_parameters, experiments)
+        for warning in setup_warnings:
             data_warnings.append(warning)
             if warn:
                 warn(warning)
