@@ -23,6 +23,27 @@ SOLVER_STEP = 1e-4
 # pendulum's state fed back to the cart only above it.
 SELF_LOCKING_ETA = 0.5
 
+# eta_back < 0 (its default, -1) keeps MODEL.md's switch: the back-drive efficiency is A(eta).
+# 0 makes the screw self-locking whatever eta (eta is then only the drive's efficiency);
+# a value in (0, 1] is the back-drive efficiency itself (a back-drivable screw or belt).
+ETA_BACK_FROM_ETA = -1.0
+
+
+def back_drive_efficiency(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> float:
+    """A, the factor on the pendulum's push in F_A (MODEL.md's A(eta) unless eta_back says
+    otherwise: README, Drives). 0 means a self-locking screw."""
+    if eta_back < 0:
+        return max(0.0, (2.0 * eta - 1.0) / eta) if eta > SELF_LOCKING_ETA else 0.0
+    return eta_back
+
+
+def back_drivable(values) -> bool:
+    """Whether the pendulum pushes the cart (the rig then needs phi, w, alpha fed back) for
+    Cart parameter values `values` (a mapping; missing names take the table's defaults)."""
+    eta = values.get("eta", CART.variable("eta").start)
+    eta_back = values.get("eta_back", CART.variable("eta_back").start)
+    return back_drive_efficiency(eta, eta_back) > 0.0
+
 
 @dataclass(frozen=True)
 class Variable:
@@ -46,6 +67,7 @@ class Variable:
     low: float | None = None
     high: float | None = None
     low_open: bool = False
+    excluded: tuple[float, float] | None = None  # an open interval inside [low, high] that is not allowed
     state: bool = False
     derivative_of: str | None = None
     depends_on: tuple[str, ...] | None = None
@@ -94,8 +116,13 @@ class Component:
         return [v for v in self.variables if v.state]
 
 
-def _param(name, start, unit, description, low=None, high=None, low_open=False):
-    return Variable(name, "parameter", "fixed", start, unit, description, low=low, high=high, low_open=low_open)
+# When the Cart reads the pendulum's inputs: a back-drivable screw (README, Drives).
+_BACK_DRIVEN = f"(used when back-drivable: eta > {SELF_LOCKING_ETA} and eta_back = -1, or eta_back > 0)"
+
+
+def _param(name, start, unit, description, low=None, high=None, low_open=False, excluded=None):
+    return Variable(name, "parameter", "fixed", start, unit, description, low=low, high=high, low_open=low_open,
+                    excluded=excluded)
 
 
 def _solver_step():
@@ -175,22 +202,40 @@ CART = Component(
         *_friction_extras("the cart", speed=("v", "m/s"), viscous=("k_fwc", "N.s/m"), coulomb=("F_Kc", "N"),
                           stiction="F_Sc", names=("v_Sc", "dk_fwc", "dF_Kc")),
         _param("F_Oc", 0.0, "N", "Constant offset force on the cart along +x (cable drag, a tilted track)"),
+        # Drives beyond MODEL.md (README, Drives): a command u beside the current, all off at 0.
+        _param("k_u", 0.0, "N", "Motor force per unit of the command u, before the screw's efficiency "
+                                "(0: no command path)"),
+        _param("k_emf", 0.0, "N.s/m", "Back-EMF of a voltage-driven motor: the command path's force falls by "
+                                      "k_emf*v", low=0.0),
+        _param("tau_e", 0.0, "s", "Electrical lag of the command path: tau_e*dF_e/dt = k_u*u - k_emf*v - F_e "
+                                  "(0: no lag, the force follows u at once)", low=0.0),
+        _param("eta_back", ETA_BACK_FROM_ETA, "1",
+               "Back-drive efficiency of the screw: -1 (default) A(eta) = max(0, (2*eta-1)/eta) as MODEL.md; "
+               "0 self-locking whatever eta; in (0, 1] this efficiency", low=-1.0, high=1.0, excluded=(-1.0, 0.0)),
         _param("x0", 0.0, "m", "Initial position"),
         _param("v0", 0.0, "m/s", "Initial speed"),
         _solver_step(),
         Variable("I", "input", "continuous", 0.0, "A", "Motor current"),
+        Variable("u", "input", "continuous", 0.0, "1",
+                 "Drive command: normalized PWM duty or voltage command (force k_u*u, used when k_u != 0)"),
         Variable("phi", "input", "continuous", math.pi, "rad",
-                 f"Pendulum angle from the upward vertical (used when eta > {SELF_LOCKING_ETA})"),
-        Variable("w", "input", "continuous", 0.0, "rad/s", f"Pendulum angular speed (used when eta > {SELF_LOCKING_ETA})"),
+                 f"Pendulum angle from the upward vertical {_BACK_DRIVEN}"),
+        Variable("w", "input", "continuous", 0.0, "rad/s",
+                 f"Pendulum angular speed {_BACK_DRIVEN}"),
         Variable("alpha", "input", "continuous", 0.0, "rad/s2",
-                 f"Pendulum angular acceleration (used when eta > {SELF_LOCKING_ETA})"),
+                 f"Pendulum angular acceleration {_BACK_DRIVEN}"),
         Variable("x", "output", "continuous", None, "m", "Cart position", state=True, depends_on=("x",)),
         Variable("v", "output", "continuous", None, "m/s", "Cart speed", state=True, derivative_of="x",
                  depends_on=("v",)),
         Variable("a", "output", "continuous", None, "m/s2", "Cart acceleration", derivative_of="v",
-                 depends_on=("v", "I", "phi", "w", "alpha")),
+                 depends_on=("v", "F_e", "I", "u", "phi", "w", "alpha")),
         Variable("F_A", "output", "continuous", None, "N", "Active force on the cart",
-                 depends_on=("I", "phi", "w", "alpha")),
+                 depends_on=("v", "F_e", "I", "u", "phi", "w", "alpha")),
+        Variable("F_e", "output", "continuous", None, "N",
+                 "Lagged force of the command path (state of the electrical lag; stays 0 when tau_e = 0)",
+                 state=True, depends_on=("F_e",)),
+        Variable("der(F_e)", "local", "continuous", None, "N/s", "Rate of the command path's force",
+                 derivative_of="F_e", depends_on=("F_e", "v", "u")),
         Variable("F_F", "local", "continuous", None, "N", "Friction force on the cart"),
         _t_mode(),
         _mode("Friction mode: +1 sliding forward, 0 stuck, -1 sliding backward"),

@@ -8,7 +8,9 @@ is set (fmus/framework, ranges generated from the table) and word their refusal 
 way: ``m_c = -1 is outside its physical range (0, inf)``.
 
 A variable here is a row of the component table (components.Variable) or what a model
-description declares (simulator.model.Variable): see Ranged.
+description declares (simulator.model.Variable): see Ranged. A table row may also exclude an
+open interval inside its range (``excluded``): the Cart's eta_back is -1 (MODEL.md's switch)
+or a back-drive efficiency in [0, 1], nothing in between (README, Drives).
 """
 
 from __future__ import annotations
@@ -35,12 +37,20 @@ class Ranged(Protocol):
     def unit(self) -> str: ...
 
 
+def _excluded(variable: Ranged) -> tuple[float, float] | None:
+    """The open interval a variable's range leaves out (None for most: only table rows have it)."""
+    return getattr(variable, "excluded", None)
+
+
 def admits(variable: Ranged, value: float) -> bool:
     """Whether `value` is finite and inside the variable's range (the high end is always
-    closed: eta = 1 is a lossless screw)."""
+    closed: eta = 1 is a lossless screw), and not in the interval it excludes."""
     if not math.isfinite(value):
         return False
     if variable.low is not None and (value < variable.low or (variable.low_open and value == variable.low)):
+        return False
+    gap = _excluded(variable)
+    if gap is not None and gap[0] < value < gap[1]:
         return False
     return variable.high is None or value <= variable.high
 
@@ -50,7 +60,12 @@ def interval(variable: Ranged) -> str:
     low = "-inf" if variable.low is None else repr(variable.low)
     high = "inf" if variable.high is None else repr(variable.high)
     opening = "(" if variable.low_open or variable.low is None else "["
-    return f"{opening}{low}, {high}{')' if variable.high is None else ']'}"
+    closing = ")" if variable.high is None else "]"
+    gap = _excluded(variable)
+    if gap is not None:  # [low, a] or [b, high]; a single value where a is the low end
+        start = low if gap[0] == variable.low else f"{opening}{low}, {gap[0]!r}]"
+        return f"{start} or [{gap[1]!r}, {high}{closing}"
+    return f"{opening}{low}, {high}{closing}"
 
 
 def number(value: float) -> str:

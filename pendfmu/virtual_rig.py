@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.components import CART, COMPONENTS, SELF_LOCKING_ETA, rig_defaults
+from pendfmu.components import COMPONENTS, back_drivable, rig_defaults
 from pendfmu.parameters import write_parameters
 from pendfmu.recording import Recording, SignalInfo, quantize, write_recording
 from pendfmu.simulator.component import ComponentFMU
@@ -154,7 +154,7 @@ def simulate_truth(experiment: Experiment, truth: Mapping[str, float]) -> dict[s
     if experiment.kind == "rig":
         components["Pendulum"] = "Pendulum"
         connections.append(Connection("Cart", "a", "Pendulum", "a"))
-        if values.get("eta", CART.variable("eta").start) > SELF_LOCKING_ETA:
+        if back_drivable(values):
             connections += [Connection("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha")]
         outputs += ["Pendulum.phi", "Pendulum.w"]
     master = Master(components, connections, {name: _of(name, values) for name in components},

@@ -32,6 +32,11 @@ Friction extras (docs-friction-extras.md; all 0 = off, the paper's law above):
                Coulomb level F_K(d) = F_K + d*dF_K; Stribeck (v_S > 0) adds
                d*(F_S - F_K(d))*exp(-(s/v_S)^2); quadratic drag adds drag*s*|s|;
                stuck while -max(F_S, F_K(-1)) <= F_N <= max(F_S, F_K(+1))
+Drives (README, Drives; all off by default: k_u = k_emf = tau_e = 0, eta_back = -1):
+               the motor force is F_u = k_M*k_D*I + F_cmd with the command path
+               F_cmd = k_u*u - k_emf*v (tau_e = 0), or the lag state F_e with
+               tau_e*dF_e/dt = k_u*u - k_emf*v - F_e, F_e(0) = 0 (tau_e > 0);
+               F_A = eta*F_u + A*m_p*l*(...); A = A(eta) for eta_back = -1, else eta_back
 
 Modes and events
 ----------------
@@ -117,11 +122,13 @@ DEFAULTS: dict[str, float] = dict(
     # friction extras, all off (docs-friction-extras.md)
     v_Sc=0.0, dk_fwc=0.0, dF_Kc=0.0, F_Oc=0.0,
     w_Sp=0.0, dk_fwp=0.0, dT_Kp=0.0, T_Op=0.0, k_dp=0.0,
+    # drives beyond MODEL.md, all off (README, Drives)
+    k_u=0.0, k_emf=0.0, tau_e=0.0, eta_back=-1.0,
 )
 #: Initial states (x0, v0 are Cart parameters, phi0, w0 Pendulum ones in MODEL.md).
 INITIAL_DEFAULTS: dict[str, float] = dict(x0=0.0, v0=0.0, phi0=math.pi, w0=0.0, I0=0.0)
 
-_COLUMNS_RIG = ["time", "I_c", "I", "x", "v", "a", "F_A", "phi", "w", "alpha", "T_A",
+_COLUMNS_RIG = ["time", "I_c", "I", "x", "v", "a", "F_A", "phi", "w", "alpha", "T_A", "F_e",
                 "mode_I", "mode_c", "mode_p"]
 
 
@@ -207,10 +214,10 @@ class _Signal:
 
 
 class _Inputs:
-    """The segment-wise input callables (Ic, I, a, pend); None where not used."""
+    """The segment-wise input callables (Ic, I, a, pend, u); None where not used."""
 
     def __init__(self, signals: dict[str, _Signal], t0: float, t1: float):
-        for name in ("Ic", "I", "a", "pend"):
+        for name in ("Ic", "I", "a", "pend", "u"):
             sig = signals.get(name)
             setattr(self, name, sig.on_segment(t0, t1) if sig is not None else None)
 
@@ -231,7 +238,9 @@ def _inertia(p: dict) -> float:
     return p["J_p"] if p["J_p"] > 0 else 4.0 / 3.0 * p["m_p"] * p["l"] ** 2
 
 
-def _backdrive(eta: float) -> float:
+def _backdrive(eta: float, eta_back: float = -1.0) -> float:
+    if eta_back >= 0:
+        return eta_back
     return max(0.0, (2.0 * eta - 1.0) / eta) if eta > 0 else 0.0
 
 
@@ -276,7 +285,8 @@ def _sgn(x: float) -> int:
 # ----------------------------------------------------------------------------- model
 
 class _Rig:
-    """The hybrid system.  State y = [I, x, v, phi, w] whatever the configuration.
+    """The hybrid system.  State y = [I, x, v, phi, w, F_e] whatever the configuration
+    (F_e: the drive's lagged command force, constant 0 unless tau_e > 0).
 
     loop=True: I is the current-loop state driven by input Ic; else I is an input.
     cart='dynamic' | 'driven' (the cart acceleration is the input ``a``: pendulum alone).
@@ -294,8 +304,10 @@ class _Rig:
         self.M = p["m_c"] + p["m_p"]
         self.J = _inertia(p)
         self.ml = p["m_p"] * p["l"]
-        self.A = _backdrive(p["eta"])
+        self.A = _backdrive(p["eta"], p["eta_back"])
         self.kF = p["eta"] * p["k_M"] * p["k_D"]  # drive force per ampere, after eta
+        if p["k_emf"] < 0 or p["tau_e"] < 0:
+            raise ValueError("k_emf and tau_e must be >= 0")
         self.cj = _Joint(p["k_fwc"], p["F_Kc"], p["F_Sc"], v_S=p["v_Sc"], dk_fw=p["dk_fwc"],
                          dF_K=p["dF_Kc"], F_O=p["F_Oc"])
         self.pj = _Joint(p["k_fwp"], p["T_Kp"], p["T_Sp"], v_S=p["w_Sp"], dk_fw=p["dk_fwp"],
@@ -314,7 +326,7 @@ class _Rig:
     def eval(self, t: float, y, modes, u: _Inputs):
         """(dI, I_out, a, alpha, F_A, T_A, phi, w) at (t, y) for the given modes."""
         mI, mc, mp = modes
-        I_s, _x, v, phi, w = y
+        I_s, _x, v, phi, w, F_e = y
         p = self.p
         if self.loop:
             z = u.Ic(t) - I_s
@@ -324,6 +336,7 @@ class _Rig:
         else:
             dI = 0.0
             I = I_force = u.I(t)
+        F_drive = self.kF * I_force + p["eta"] * self.command(t, v, F_e, u)  # eta F_u
         if self.pend == "given":
             phi, w, alpha_in = u.pend(t)
         s, c = math.sin(phi), math.cos(phi)
@@ -335,11 +348,11 @@ class _Rig:
             alpha = 0.0 if mp == 0 else (T_A + self.pj.F_O - self.pj.sliding(w, mp)) / self.J
         elif self.pend == "given":
             alpha = alpha_in
-            F_A = self.kF * I_force + A * ml * (w * w * s - alpha * c)
+            F_A = F_drive + A * ml * (w * w * s - alpha * c)
             a = 0.0 if mc == 0 else (F_A + self.cj.F_O - self.cj.sliding(v, mc)) / self.M
             T_A = ml * (p["g"] * s - a * c)  # what the cart would exert on the pendulum
         else:
-            F0 = self.kF * I_force + A * ml * w * w * s  # cart active force without the alpha term
+            F0 = F_drive + A * ml * w * w * s  # cart active force without the alpha term
             Tg = ml * p["g"] * s                   # pendulum active torque without the a term
             F0n, Tgn = F0 + self.cj.F_O, Tg + self.pj.F_O  # with the offsets: what the joints feel
             if mc != 0 and mp != 0:                # both sliding: the coupled 2x2 system
@@ -361,11 +374,24 @@ class _Rig:
             T_A = Tg - ml * c * a
         return dI, I, a, alpha, F_A, T_A, phi, w
 
+    def command(self, t: float, v: float, F_e: float, u: _Inputs) -> float:
+        """The command path's force before the screw: the lag's state, or k_u u - k_emf v."""
+        p = self.p
+        if p["tau_e"] > 0:
+            return F_e
+        u_t = u.u(t) if u.u is not None else 0.0
+        return p["k_u"] * u_t - p["k_emf"] * v
+
     def rhs(self, t, y, modes, u):
         yl = y.tolist()
         dI, _I, a, alpha, _F, _T, _phi, _w = self.eval(t, yl, modes, u)
         dphi, dw = (yl[4], alpha) if self.pend == "dynamic" else (0.0, 0.0)
-        return [dI, yl[2], a, dphi, dw]
+        p = self.p
+        dF = 0.0
+        if p["tau_e"] > 0:
+            u_t = u.u(t) if u.u is not None else 0.0
+            dF = (p["k_u"] * u_t - p["k_emf"] * yl[2] - yl[5]) / p["tau_e"]
+        return [dI, yl[2], a, dphi, dw, dF]
 
     # -- events ----------------------------------------------------------------------
     def events(self, modes, u):
@@ -481,7 +507,7 @@ class _Rig:
         edges = bps + [tN]
         k_edge = 0
         u = _Inputs(signals, t0, edges[0])
-        y = np.array(y0, dtype=float)
+        y = np.array(list(y0) + [0.0] * (6 - len(y0)), dtype=float)  # F_e(0) = 0 unless given
         # Before t0 a joint at rest counts as stuck, a moving one as sliding its way.
         prev0 = (self.current_mode(t0, y, u),
                  (_sgn(y[2]) if y[2] != 0 else 0) if self.cart_modal else 1,
@@ -490,7 +516,7 @@ class _Rig:
         events: list[Event] = []
         self._record(events, t0, prev0, modes, include_current=False)
         n = t_eval.size
-        rows = np.empty((n, 13))
+        rows = np.empty((n, 14))
         idx = 0
         t = t0
         stall = 0
@@ -547,7 +573,7 @@ class _Rig:
             yl = yk.tolist()
             _dI, I, a, alpha, F_A, T_A, phi, w = self.eval(float(t), yl, modes, u)
             Ic = u.Ic(float(t)) if self.loop else math.nan
-            rows[i0 + k] = (Ic, I, yl[1], yl[2], a, F_A, phi, w, alpha, T_A, *modes)
+            rows[i0 + k] = (Ic, I, yl[1], yl[2], a, F_A, phi, w, alpha, T_A, yl[5], *modes)
 
     def _record(self, events, t, old, new, include_current):
         names = ("current", "cart", "pendulum")
@@ -649,22 +675,23 @@ def simulate_current_loop(params: dict | None, I_c, t_eval, I0: float = 0.0, *,
 
 
 def simulate_cart(params: dict | None, I, t_eval, x0: float = 0.0, v0: float = 0.0,
-                  pendulum=None, *, breakpoints: Sequence[float] = (),
+                  pendulum=None, *, u=0.0, breakpoints: Sequence[float] = (),
                   **solver) -> pd.DataFrame:
-    """The Cart block alone, driven by the current ``I`` (float, Steps, pairs, callable).
+    """The Cart block alone, driven by the current ``I`` (float, Steps, pairs, callable)
+    and the drive command ``u`` (the same forms; used when k_u != 0, README Drives).
 
     ``pendulum``: for a back-drivable screw (eta > 0.5) the pendulum signals, a callable
     t -> (phi, w, alpha) or a constant tuple; None means a pendulum at rest (no force).
-    Columns time, I, x, v, a, F_A, mode_c; attrs['events'] the cart's mode changes.
+    Columns time, I, x, v, a, F_A, F_e, mode_c; attrs['events'] the cart's mode changes.
     """
     p = rig_params(params)
     for k in INITIAL_DEFAULTS:
         p.pop(k, None)
     rig = _Rig(p, loop=False, cart="dynamic", pend="given")
     pend = pendulum if pendulum is not None else (math.pi, 0.0, 0.0)
-    signals = {"I": _Signal(I, breakpoints), "pend": _Signal(pend, breakpoints)}
+    signals = {"I": _Signal(I, breakpoints), "pend": _Signal(pend, breakpoints), "u": _Signal(u, breakpoints)}
     df, events = rig.run(signals, t_eval, [0.0, x0, v0, math.pi, 0.0], **_solver_kw(solver))
-    out = df[["time", "I", "x", "v", "a", "F_A", "mode_c"]].copy()
+    out = df[["time", "I", "x", "v", "a", "F_A", "F_e", "mode_c"]].copy()
     out.attrs["events"] = [e for e in events if e.joint == "cart"]
     return out
 
@@ -707,7 +734,7 @@ def invariants(df: pd.DataFrame, params: dict | None = None) -> pd.DataFrame:
     the plain mechanical energy E_1 of cart + pendulum, per row of a rig DataFrame."""
     p = rig_params(params)
     M, J, ml = p["m_c"] + p["m_p"], _inertia(p), p["m_p"] * p["l"]
-    A = _backdrive(p["eta"])
+    A = _backdrive(p["eta"], p["eta_back"])
     v, w, c = df["v"].to_numpy(), df["w"].to_numpy(), np.cos(df["phi"].to_numpy())
     pend = 0.5 * J * w ** 2 + ml * p["g"] * c
     return pd.DataFrame({

@@ -19,7 +19,7 @@ def test_back_drivable_rig_couples_cart_and_pendulum():
 
 
 def test_feedthrough_comes_from_the_model_structure():
-    assert feedthrough_of("Cart")["a"] == {"I", "phi", "w", "alpha"}
+    assert feedthrough_of("Cart")["a"] == {"I", "u", "phi", "w", "alpha"}
     assert feedthrough_of("Cart")["x"] == set()
     assert feedthrough_of("Pendulum")["alpha"] == {"a"}
     assert feedthrough_of("CurrentLoop")["I"] == set()

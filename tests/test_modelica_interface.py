@@ -21,7 +21,7 @@ import rumoca
 from modelica_declarations import LIBRARY, ModelicaClass, ModelicaSyntaxError, evaluate, parse_class, read_class
 from pendfmu.components import COMPONENTS, Component
 
-FMU_ONLY = {"solver_step", "t_mode", "der(I_mean)"}
+FMU_ONLY = {"solver_step", "t_mode", "der(I_mean)", "der(F_e)"}
 PUBLIC = ("parameter", "input", "output")
 
 

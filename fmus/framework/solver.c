@@ -67,9 +67,10 @@ static void advance(Instance *inst, double t, const double *x, double h, double 
 
 #if SECOND_ORDER
 /* One classic Runge-Kutta step of size h from (t, x) into x_out, for a joint: states
- * (p, v) with dp/dt = v and dv/dt = f(t, p, v). The inputs are already evaluated at t.
- * Substituting k_p = v + c h f into the classic formulas gives its Nystrom form, the same
- * method up to rounding:
+ * (p, v) with dp/dt = v and dv/dt = f(t, p, v), then any further first-order states q
+ * (dq/dt = g, the Cart's electrical lag) in the classic form. The inputs are already
+ * evaluated at t. Substituting k_p = v + c h f into the classic formulas gives its Nystrom
+ * form, the same method up to rounding:
  *     f1 = f(t, p, v)
  *     f2 = f(t + h/2, p + h/2 v, v + h/2 f1)
  *     f3 = f(t + h/2, p + h/2 v + h^2/4 f1, v + h/2 f2)
@@ -77,30 +78,36 @@ static void advance(Instance *inst, double t, const double *x, double h, double 
  *     p' = p + h v + h^2/6 (f1 + f2 + f3),   v' = v + h/6 (f1 + 2 f2 + 2 f3 + f4)
  * Why: each stage position no longer waits for the previous stage's speed. The position of
  * stage 2 needs no stage at all, so the processor evaluates its trigonometry alongside
- * stage 1, and the chain of dependent operations through a step is about half as long. */
+ * stage 1, and the chain of dependent operations through a step is about half as long.
+ * The further states do not change the arithmetic of (p, v): a model whose extra states
+ * are constant (derivative 0) steps (p, v) bit for bit as a two-state joint. */
 FLATTEN static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
     const double p = x[0], v = x[1], half = 0.5 * h;
-    double stage[N_STATES], dx[N_STATES];
-    model_derivatives(inst, t, x, dx);
-    const double f1 = dx[1];
+    double stage[N_STATES], d1[N_STATES], d2[N_STATES], d3[N_STATES], d4[N_STATES];
+    model_derivatives(inst, t, x, d1);
+    const double f1 = d1[1];
     solver_inputs_at(inst, t + half);
     const double p_half = p + half * v;
     stage[0] = p_half;
     stage[1] = v + half * f1;
-    model_derivatives(inst, t + half, stage, dx);
-    const double f2 = dx[1];
+    for (int j = 2; j < N_STATES; j++) stage[j] = x[j] + half * d1[j];
+    model_derivatives(inst, t + half, stage, d2);
+    const double f2 = d2[1];
     stage[0] = p_half + (half * half) * f1;
     stage[1] = v + half * f2;
-    model_derivatives(inst, t + half, stage, dx);
-    const double f3 = dx[1];
+    for (int j = 2; j < N_STATES; j++) stage[j] = x[j] + half * d2[j];
+    model_derivatives(inst, t + half, stage, d3);
+    const double f3 = d3[1];
     solver_inputs_at(inst, t + h);
     const double p_full = p + h * v;
     stage[0] = p_full + (h * half) * f2;
     stage[1] = v + h * f3;
-    model_derivatives(inst, t + h, stage, dx);
-    const double f4 = dx[1];
+    for (int j = 2; j < N_STATES; j++) stage[j] = x[j] + h * d3[j];
+    model_derivatives(inst, t + h, stage, d4);
+    const double f4 = d4[1];
     x_out[0] = p_full + (h * h / 6.0) * (f1 + f2 + f3);
     x_out[1] = v + h / 6.0 * (f1 + 2.0 * f2 + 2.0 * f3 + f4);
+    for (int j = 2; j < N_STATES; j++) x_out[j] = x[j] + h / 6.0 * (d1[j] + 2.0 * d2[j] + 2.0 * d3[j] + d4[j]);
 }
 #else
 static void derivatives_at(Instance *inst, double t, const double *x, double *dx) {

@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fix", nargs="+", action="extend", default=[], metavar="NAME", help="keep these at their given values")
     parser.add_argument("--bounds", nargs="+", action="extend", default=[], metavar="NAME=LOW:HIGH", help="search bounds")
     parser.add_argument("--drive", nargs="+", action="extend", metavar="INPUT[=COLUMN]",
-                        help="a stage: the recorded signal that drives it (I_c, I or a); a model: its inputs driven "
+                        help="a stage: the recorded signal that drives it (I_c, I, u or a); a model: its inputs driven "
                              "by recorded columns (default: each input with a column of its name)")
     parser.add_argument("--match", nargs="+", action="extend", metavar="OUTPUT[=COLUMN]",
                         help="a model: its outputs compared with recorded columns (default: each output with a "
@@ -212,13 +212,13 @@ def _model_and_recordings(args: argparse.Namespace):
 
 
 def _stage_drive(args: argparse.Namespace) -> str | None:
-    """A stage's --drive: one recorded column, I_c, I or a."""
+    """A stage's --drive: one recorded column, I_c, I, u or a."""
     from pendfmu.errors import UsageError
 
     if not args.drive:
         return None
-    if len(args.drive) != 1 or args.drive[0] not in ("I_c", "I", "a"):
-        raise UsageError(f"--drive {' '.join(args.drive)}: a stage is driven by one recorded signal, I_c, I or a")
+    if len(args.drive) != 1 or args.drive[0] not in ("I_c", "I", "u", "a"):
+        raise UsageError(f"--drive {' '.join(args.drive)}: a stage is driven by one recorded signal, I_c, I, u or a")
     return args.drive[0]
 
 

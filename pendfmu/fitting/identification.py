@@ -22,7 +22,7 @@ from pendfmu.fitting.experiment import Experiment
 from pendfmu.fitting.models import (checked_values, initial_map, load_model, mapping, model_experiments,
                                     model_free_parameters, read_for)
 from pendfmu.fitting.optimizer import GlobalOptions, optimize
-from pendfmu.fitting.plausibility import SuspiciousData, check_experiment
+from pendfmu.fitting.plausibility import SuspiciousData, check_experiment, self_locking_switch, viscous_twins
 from pendfmu.fitting.progress import Progress
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.fitting.result import ExperimentFit, FitResult, flag_warnings, nrmse
@@ -183,6 +183,12 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
         raise SuspiciousData(data_warnings)
     if preset:
         free_parameters = stage_free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values)
+        # warnings about the fit's set-up (README, Drives): printed as the data's are
+        setup_warnings = self_locking_switch(free_parameters, experiments) + viscous_twins(free_parameters, experiments)
+        for warning in setup_warnings:
+            data_warnings.append(warning)
+            if warn:
+                warn(warning)
     else:
         free_parameters = model_free_parameters(user, list(free or []), list(fix), dict(bounds or {}), values,
                                                 experiments)

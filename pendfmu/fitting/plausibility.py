@@ -19,11 +19,14 @@ and `--strict` turns them into a non-zero exit code.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
+from pendfmu.components import CART, SELF_LOCKING_ETA
 from pendfmu.errors import Suspicious
 from pendfmu.fitting.experiment import Experiment
+from pendfmu.fitting.residuals import FreeParameter
 
 # Slowest plausible sampling per stage [s]: a current loop of ~1 ms needs sub-ms samples;
 # a cart or pendulum sampled below 20 Hz shows nothing of its friction.
@@ -45,6 +48,40 @@ class SuspiciousData(Suspicious):
     def __init__(self, warnings: list[str]):
         super().__init__(f"{len(warnings)} warning(s) about the recordings (strict: not fitted): " + "; ".join(warnings))
         self.warnings = list(warnings)
+
+
+def self_locking_switch(free: Sequence[FreeParameter], experiments: Sequence[Experiment]) -> list[str]:
+    """A warning when a fit frees eta over a box that straddles the self-locking limit (0.5)
+    while MODEL.md's switch is on (eta_back = -1) and a recording has a pendulum on the cart:
+    inside the box the screw turns from self-locking to back-drivable, so the model the fit
+    explores changes its kind, not only its efficiency (README, Drives)."""
+    box = next((p for p in free if p.name == "eta" and p.experiment is None), None)
+    if box is None or not box.low <= SELF_LOCKING_ETA < box.high:
+        return []
+    cart_default = CART.parameters
+    switched = [e.name for e in experiments
+                if e.fixed.get("eta_back", cart_default["eta_back"].start) < 0
+                and e.fixed.get("m_p", cart_default["m_p"].start) > 0]
+    if not switched:
+        return []
+    return [f"eta is searched over [{box.low:g}, {box.high:g}], which straddles {SELF_LOCKING_ETA}: with the "
+            f"pendulum on the cart ({', '.join(switched)}: m_p > 0) the screw's self-locking switches inside the "
+            f"box (eta > {SELF_LOCKING_ETA} makes it back-drivable); if eta is only the drive's efficiency, set "
+            f"eta_back=0 (never back-driven), or bound eta to one side with --bounds eta=LOW:HIGH"]
+
+
+def viscous_twins(free: Sequence[FreeParameter], experiments: Sequence[Experiment]) -> list[str]:
+    """A warning when a fit frees both k_fwc and k_emf without an electrical lag: the back-EMF
+    then acts on x as viscous friction does (README, Drives), and only k_fwc + eta k_emf is
+    determined."""
+    names = {p.name for p in free if p.experiment is None}
+    if not {"k_fwc", "k_emf"} <= names or "tau_e" in names:
+        return []
+    if any(e.fixed.get("tau_e", 0.0) > 0 for e in experiments):
+        return []
+    return ["k_fwc and k_emf are both fitted, but without an electrical lag (tau_e = 0) the back-EMF acts on "
+            "the cart as viscous friction does: only k_fwc + eta*k_emf is determined. Fix k_fwc at the value of a "
+            "current-driven run (--fix k_fwc), or k_emf"]
 
 
 def check_experiment(experiment: Experiment) -> list[str]:

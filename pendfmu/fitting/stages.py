@@ -5,7 +5,9 @@ and compares them with the signals the block's sensor recorded:
 
     current   CurrentLoop driven by the recorded I_c (held)       -> fitted to I
     cart      CurrentLoop -> Cart driven by I_c (held), or Cart
-              driven by the recorded I (linear, ``drive="I"``)     -> fitted to x
+              driven by the recorded I (linear, ``drive="I"``), or
+              by a recorded command u (held, ``drive="u"``: PWM or
+              voltage drives, README Drives)                       -> fitted to x
     pendulum  Pendulum driven by the recorded cart acceleration a
               (linear), or a still cart                            -> fitted to phi
 
@@ -51,7 +53,7 @@ class Stage:
 
 STAGES: dict[str, Stage] = {
     "current": Stage("current", "CurrentLoop", ("I",), ("T_i", "dIdt_max"), ("I_c",)),
-    "cart": Stage("cart", "Cart", ("x",), ("eta", "k_fwc", "F_Kc", "F_Sc"), ("I_c", "I"),
+    "cart": Stage("cart", "Cart", ("x",), ("eta", "k_fwc", "F_Kc", "F_Sc"), ("I_c", "I", "u"),
                   coarse_solver_step=4e-4, starts=(StartState("x0", "x"), StartState("v0", "x", rate=True))),
     "pendulum": Stage("pendulum", "Pendulum", ("phi",), ("k_fwp", "T_Kp", "T_Sp"), ("a", ""),
                       estimated_initial=("phi",), coarse_decimate=10, coarse_solver_step=4e-4,
@@ -102,6 +104,22 @@ def settling_current(times: np.ndarray, drives: Mapping[str, np.ndarray], values
     return transient_grid(times, drives["CurrentLoop.I_c"], values["T_i"], values["dIdt_max"])
 
 
+# A command-driven cart (drive u) has no current: the force is eta (k_u u - k_emf v), and eta
+# multiplies both k_u and k_emf, so only their products with eta show in x: the fit keeps eta
+# at its given value. Without a lag the back-EMF acts on x exactly as viscous friction does
+# (both proportional to v while sliding, both 0 at rest): x shows k_fwc + eta k_emf only, so
+# the fit keeps k_fwc at its given value (from a current-driven run, the paper's cart stage)
+# and estimates the drive's gain, back-EMF and the Coulomb friction and stiction.
+COMMAND_FREE = ("k_u", "k_emf", "F_Kc", "F_Sc")
+
+
+def default_free(stage: str, drives: Sequence[str]) -> tuple[str, ...]:
+    """The parameters a stage fits unless told otherwise, for recordings driven by `drives`."""
+    if stage == "cart" and "u" in drives:
+        return COMMAND_FREE
+    return STAGES[stage].default_free
+
+
 @lru_cache(maxsize=None)
 def stage_setup(stage: str, drive: str) -> Setup:
     """The Setup of a stage driven by the recorded column `drive` ("" for none)."""
@@ -115,9 +133,10 @@ def stage_setup(stage: str, drive: str) -> Setup:
         return Setup(stage, model, {"I_c": ("I_c", "hold")}, match, estimated, settling_current,
                      spec.coarse_decimate, coarse, spec.starts)
     model = Model.of_components(stage, {spec.component: spec.component})
-    # a recorded current is held, as the converter's command is; a recorded current or
-    # acceleration the cart follows is smooth, so linear between samples
-    drives = {drive: (drive, "hold" if drive == "I_c" else "linear")} if drive else {}
+    # a recorded current is held, as the converter's command is, and so is a drive command u
+    # (PWM duty, voltage); a recorded current or acceleration the cart follows is smooth, so
+    # linear between samples
+    drives = {drive: (drive, "hold" if drive in ("I_c", "u") else "linear")} if drive else {}
     return Setup(stage, model, drives, match, estimated, None, spec.coarse_decimate, coarse, spec.starts)
 
 
@@ -167,6 +186,12 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
     # speeds and air drag over their physical decades. Asymmetries and offsets have a sign and a
     # size set by the rig: they need --bounds.
     "v_Sc": (1e-4, 1.0, True), "w_Sp": (1e-4, 10.0, True), "k_dp": (1e-9, 1e-1, True),
+    # Drives (README, Drives). k_u: a motor of k_M/R = 0.01-1 N.m/(V.ohm) on a 1-100 mm pitch
+    # gives 0.1 to 6e4 N per volt, a normalized PWM command the same times its full voltage.
+    # k_emf = k_M^2 k_D^2 / R: from 1e-2 (a weak motor on a coarse pitch) to 1e5 N.s/m.
+    # tau_e = L/R of the winding or a drive's filter: 0.1 ms to 1 s. A reversed sign of k_u
+    # (wiring) needs --bounds.
+    "k_u": (1e-2, 1e5, True), "k_emf": (1e-2, 1e5, True), "tau_e": (1e-4, 1.0, True),
 }
 
 
@@ -197,7 +222,9 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
     spec = STAGES[stage]
     component = COMPONENTS[spec.component]
     signals = {column for e in experiments for column in (*e.match.values(), *(c for c, _ in e.setup.drives.values()))}
-    names = list(spec.default_free) + [n for n in (free or []) if n not in spec.default_free]
+    drives = {column for experiment in experiments for column, _ in experiment.setup.drives.values()}
+    preset = default_free(stage, sorted(drives))
+    names = list(preset) + [n for n in (free or []) if n not in preset]
     own = {e.name: e.estimated for e in experiments}
     per_recording = {name for estimated in own.values() for name in estimated}
     for name in list(names) + list(fix) + sorted(per_recording):

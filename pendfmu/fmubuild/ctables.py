@@ -26,10 +26,11 @@ def _c_double(value: float) -> str:
 
 
 def _is_second_order(component: Component) -> bool:
-    """States (position, speed) with speed = d position/dt: a mechanical joint, for which the
-    solver takes RK4 in its Nystrom form (solver.c)."""
+    """First states (position, speed) with speed = d position/dt: a mechanical joint, for which the
+    solver takes RK4 in its Nystrom form (solver.c); further states (the Cart's electrical lag)
+    are first-order and take the classic form beside it."""
     states = component.states
-    return len(states) == 2 and states[1].derivative_of == states[0].name
+    return len(states) >= 2 and states[1].derivative_of == states[0].name
 
 
 def variables_header(component: Component, guid: str) -> str:

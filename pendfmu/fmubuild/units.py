@@ -23,6 +23,7 @@ BASE_UNITS: dict[str, dict[str, int]] = {
     "N.m": {"kg": 1, "m": 2, "s": -2},
     "N.m/A": {"kg": 1, "m": 2, "s": -2, "A": -1},
     "N.s/m": {"kg": 1, "s": -1},
+    "N/s": {"kg": 1, "m": 1, "s": -3},  # rate of a force (the Cart's electrical lag)
     "N.m.s": {"kg": 1, "m": 2, "s": -1},
     "N.m.s2": {"kg": 1, "m": 2},  # quadratic drag k_dp: torque per (rad/s)^2
 }

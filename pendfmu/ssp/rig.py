@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pendfmu.components import COMPONENTS, SELF_LOCKING_ETA
+from pendfmu.components import COMPONENTS, ETA_BACK_FROM_ETA, back_drive_efficiency
 from pendfmu.ranges import outside
 from pendfmu.ssp.fmu import FmuDescription, describe_fmu
 from pendfmu.ssp.model import Connection, Experiment, FmuComponent, ParameterValue, System
@@ -19,9 +19,10 @@ DRIVE = (("CurrentLoop.I_mean", "Cart.I"), ("Cart.a", "Pendulum.a"))
 BACK_DRIVE = (("Pendulum.phi", "Cart.phi"), ("Pendulum.w", "Cart.w"), ("Pendulum.alpha", "Cart.alpha"))
 
 
-def rig_connections(eta: float) -> list[Connection]:
-    """Current -> cart -> pendulum, and for a back-drivable screw the pendulum's state back to the cart."""
-    pairs = DRIVE + (BACK_DRIVE if eta > SELF_LOCKING_ETA else ())
+def rig_connections(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> list[Connection]:
+    """Current -> cart -> pendulum, and for a back-drivable screw the pendulum's state back to the cart
+    (eta_back: the Cart's parameter, -1 for MODEL.md's A(eta); README, Drives)."""
+    pairs = DRIVE + (BACK_DRIVE if back_drive_efficiency(eta, eta_back) > 0.0 else ())
     return [Connection.between(start, end) for start, end in pairs]
 
 
@@ -85,7 +86,8 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
     """The rig as an SSP system of the FMUs in `fmu_dir` (CurrentLoop.fmu, Cart.fmu, Pendulum.fmu).
 
     `eta` is the screw efficiency: above SELF_LOCKING_ETA (0.5) the pendulum's phi, w and alpha feed back into
-    the cart (5 connections), otherwise only current -> cart -> pendulum (2 connections).
+    the cart (5 connections), otherwise only current -> cart -> pendulum (2 connections). A Cart parameter
+    `eta_back` in `parameters` overrides that switch (0: self-locking, > 0: back-drivable; README, Drives).
     `parameters` maps "name" (every component that has it) or "Component.name" to a value
     in the FMU's unit; m_p and l always go to both Cart and Pendulum. The default step size
     is the sensors' sample period (0.2 ms).
@@ -96,11 +98,13 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
                   for c, d in fmus.items()}
     used = {conn.unit for d in fmus.values() for conn in d.connectors if conn.unit}
     units = {u: d.units[u] for d in fmus.values() for u in sorted(used) if u in d.units}
-    kind = "back-drivable" if eta > SELF_LOCKING_ETA else "self-locking"
+    given = parameters or {}
+    eta_back = float(given.get("Cart.eta_back", given.get("eta_back", ETA_BACK_FROM_ETA)))
+    kind = "back-drivable" if back_drive_efficiency(eta, eta_back) > 0.0 else "self-locking"
     return System(
         name=name,
         components=components,
-        connections=rig_connections(eta),
+        connections=rig_connections(eta, eta_back),
         parameters=rig_parameters(eta, parameters, fmus),
         units=units,
         parameter_set=parameter_set,

@@ -4,6 +4,7 @@ model CartFrictionExtras "Test bench: the paper's Fig. 3 mass as the Cart, with 
     v_Sc = 0.05, dk_fwc = 0.5, dF_Kc = 0.1, F_Oc = 0.15) "The cart as a 0.5 kg mass whose current is the force in newtons";
 equation
   cart.I = sin(2*PendulumID.pi*time/0.63);
+  cart.u = 0 "the command path (README, Drives) is not used";
   cart.phi = PendulumID.pi;
   cart.w = 0;
   cart.alpha = 0;

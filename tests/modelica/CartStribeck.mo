@@ -4,6 +4,7 @@ model CartStribeck "Test bench: the paper's Fig. 3 mass as the Cart, with the St
     v_Sc = 0.05) "The cart as a 0.5 kg mass whose current is the force in newtons";
 equation
   cart.I = sin(2*PendulumID.pi*time/0.63);
+  cart.u = 0 "the command path (README, Drives) is not used";
   cart.phi = PendulumID.pi;
   cart.w = 0;
   cart.alpha = 0;

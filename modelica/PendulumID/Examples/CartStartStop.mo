@@ -8,6 +8,7 @@ model CartStartStop "Identification experiment 2: the cart, pendulum removed, st
 equation
   currentLoop.I_c = if time >= t_on and time < t_off then I_on else 0;
   cart.I = currentLoop.I_mean;
+  cart.u = 0 "the command path (k_u, README Drives) is not used: the current drives";
   cart.phi = pi;
   cart.w = 0;
   cart.alpha = 0;

@@ -12,6 +12,7 @@ model Rig "The three components coupled: current loop -> cart -> pendulum (and b
 equation
   currentLoop.I_c = if time >= t_on and time < t_off then I_on else 0;
   cart.I = currentLoop.I_mean;
+  cart.u = 0 "the command path (k_u, README Drives) is not used: the current drives";
   pendulum.a = cart.a;
   if eta > 0.5 then
     // back-drivable screw: the pendulum's reaction acts on the cart (an algebraic loop)
