@@ -55,6 +55,15 @@ def unpacked_fmu(name: str, fmu: str | Path | None = None, copy: int = 0) -> tup
     return _UNPACKED[key]
 
 
+def discrete_outputs(name: str, fmu: str | Path | None = None) -> set[str]:
+    """The outputs of component `name` (or of the FMU file) whose variability is discrete:
+    piecewise constant, changing only at events (a sampled controller's output, held from
+    one sample to the next). A master holds such a signal over a communication step instead
+    of interpolating it: a line towards the next sample's value would apply it early."""
+    md = unpacked_fmu(name, fmu)[1]
+    return {v.name for v in md.modelVariables if v.causality == "output" and v.variability == "discrete"}
+
+
 class FMU2SlaveCached(FMU2Slave):
     """fmpy's FMU2Slave, with its table of the FMU's C functions built once per process:
     fmpy builds it for every instance with an inspect.signature per function (2 ms of the
