@@ -108,12 +108,19 @@ static bool time_event_due(const Instance *inst) {
     return model_next_time_event(inst) <= t + TIME_EVENT_TOLERANCE * fmax(1.0, fabs(t));
 }
 
-/* Take every time event due at the current time (inputs evaluated there). */
-static void take_due_time_events(Instance *inst) {
-    while (time_event_due(inst)) {
+/* Take every time event due at the current time (inputs evaluated there). Returns false
+ * (logged) when they do not end: events closer than the time tolerance. */
+static bool take_due_time_events(Instance *inst) {
+    for (int k = 0; time_event_due(inst); k++) {
+        if (k >= MAX_EVENT_ITERATIONS) {
+            log_error(inst, "t = %.12g s: more than %d time events at one instant (events closer than %g s)",
+                      inst->s.time, MAX_EVENT_ITERATIONS, TIME_EVENT_TOLERANCE * fmax(1.0, fabs(inst->s.time)));
+            return false;
+        }
         solver_inputs_at(inst, inst->s.time);
         model_time_event(inst, inst->s.time, true);
     }
+    return true;
 }
 
 /* Compute outputs and locals. In Co-Simulation, a time event on the current communication
@@ -588,13 +595,19 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
      * integrated up to it first; one at the end point is left to the next step, which sees
      * the inputs of that point (meanwhile the outputs preview it: compute_outputs). */
     const double t_end = currentCommunicationPoint + communicationStepSize;
-    if (communicationStepSize > 0.0) take_due_time_events(inst);
+    if (communicationStepSize > 0.0 && !take_due_time_events(inst))
+        return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
+    double events = 0.0;
     for (double t_event = model_next_time_event(inst);
          t_event < t_end - TIME_EVENT_TOLERANCE * fmax(1.0, fabs(t_end)); t_event = model_next_time_event(inst)) {
+        if (++events > MAX_INTERNAL_STEPS)
+            return fail(inst, "fmi2DoStep: a step of %g s holds more than %.0f time events (samples): take shorter "
+                        "steps", communicationStepSize, MAX_INTERNAL_STEPS);
         if (t_event > s->time && !solver_do_step(inst, t_event))
             return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
         s->time = fmax(s->time, t_event);
-        take_due_time_events(inst);
+        if (!take_due_time_events(inst))
+            return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
     }
     if (!solver_do_step(inst, t_end))
         return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
@@ -663,7 +676,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
     eventInfo->terminateSimulation = fmi2False;
     eventInfo->nominalsOfContinuousStatesChanged = fmi2False;
     eventInfo->valuesOfContinuousStatesChanged = memcmp(before, inst->s.x, sizeof before) != 0;
-    take_due_time_events(inst);
+    if (!take_due_time_events(inst)) return fail(inst, "fmi2NewDiscreteStates: time events failed");
     const double next_event = model_next_time_event(inst);
     eventInfo->nextEventTimeDefined = isfinite(next_event) ? fmi2True : fmi2False;
     eventInfo->nextEventTime = isfinite(next_event) ? next_event : 0.0;
