@@ -235,16 +235,10 @@ def test_model_exchange_time_events_at_the_samples():
     from pendfmu.fmubuild import ensure_fmu
 
     T_s, K_i = 0.01, 2.0
-    events = []
-
-    def step_finished(time, recorder):
-        events.append(time)
-        return True
-
     result = simulate_fmu(str(ensure_fmu("Controller")), fmi_type="ModelExchange", start_time=0.0, stop_time=0.1,
                           output_interval=T_s / 4, start_values={"K_p": 0.0, "K_i": K_i, "T_s": T_s},
                           input=np.array([(0.0, 1.0), (1.0, 1.0)], dtype=[("time", float), ("r", float)]),
-                          output=["u", "t_sample"], step_finished=step_finished)
+                          output=["u", "t_sample"])
     t = result["time"]
     # After the event at k T_s, u = K_i T_s k; fmpy records the left and the right limit.
     k_after = np.floor(t / T_s + 1e-9)

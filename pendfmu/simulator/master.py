@@ -90,7 +90,7 @@ def feedthrough_of(component_type: str, fmu: str | Path | None = None) -> dict[s
 class Master(CoupledSteps):
     """A system of component FMUs connected output to input.
 
-    `components` maps instance names to component types (CurrentLoop, Cart, Pendulum);
+    `components` maps instance names to component types (CurrentLoop, Cart, Pendulum, Controller);
     `parameters` maps instance names to their parameter values; `fmus` optionally maps
     instance names to FMU files to use instead of the ones built from source."""
 
