@@ -1,7 +1,8 @@
 """pendfmu: identify an inverted-pendulum rig, or any FMU, from recorded time responses.
 
 The flow is one-way: recording -> experiment -> simulator -> residuals -> optimizer ->
-result -> report/export. The component FMUs (CurrentLoop, Cart, Pendulum) are built from
+result -> report/export. The component FMUs (CurrentLoop, Cart, Pendulum; and Controller, a
+discrete PID controller for systems with a controller in the loop) are built from
 C sources in fmus/ by ``pendfmu build``; their variables are defined once, in
 :mod:`pendfmu.components`.
 

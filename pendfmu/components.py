@@ -1,4 +1,4 @@
-"""The variable tables of the three component FMUs: the single source of truth.
+"""The variable tables of the component FMUs (the rig's three and the Controller): the single source of truth.
 
 Everything that names a variable is generated from these tables: each FMU's
 ``modelDescription.xml``, the C header with its value references, start values and
@@ -81,6 +81,9 @@ class Component:
     description: str
     variables: tuple[Variable, ...]
     event_indicators: int
+    # Doubles of model-owned discrete state in the FMU state (DynamicState.store): the sample
+    # histories of a sampled component; 0 for a purely continuous one.
+    store_size: int = 0
 
     def __post_init__(self) -> None:
         names = [v.name for v in self.variables]
@@ -279,7 +282,58 @@ PENDULUM = Component(
     ),
 )
 
+# The Controller's buffers (fmus/Controller/model.c): at most this many samples of delay and
+# of derivative span n_d. Its store holds them plus a few scalars (model.c checks the size).
+CONTROLLER_MAX_SAMPLES = 100
+# The default saturation: FMI 2 XML cannot write an infinite start value, and the FMUs refuse
+# non-finite Reals, so "no saturation" is this finite bound, far beyond any signal.
+NO_SATURATION = 1e300
+
+CONTROLLER = Component(
+    name="Controller",
+    description="Discrete PID controller with sample time, derivative over n_d samples, output delay, "
+                "saturation and a feedforward added after it",
+    event_indicators=0,
+    store_size=8 + 2 * CONTROLLER_MAX_SAMPLES,
+    variables=(
+        _param("T_s", 1e-3, "s", "Sample time: samples at t_start + k*T_s", low=0.0, low_open=True),
+        _param("K_p", 1.0, "", "Proportional gain"),
+        _param("K_i", 0.0, "", "Integral gain (per second): the integrator adds K_i*T_s*e at each sample"),
+        _param("K_d", 0.0, "", "Derivative gain (seconds): K_d times the difference quotient over n_d samples"),
+        _param("u_max", NO_SATURATION, "", f"Upper saturation of the output before u_ff ({NO_SATURATION:g}: none)"),
+        _param("u_min", -NO_SATURATION, "", f"Lower saturation of the output before u_ff ({-NO_SATURATION:g}: none)"),
+        _param("u0", 0.0, "", "Output (before u_ff) over the first `delay` samples, before a computed value arrives"),
+        Variable("r", "input", "continuous", 0.0, "", "Reference, read at each sample"),
+        Variable("y", "input", "continuous", 0.0, "", "Measurement, read at each sample"),
+        Variable("u_ff", "input", "continuous", 0.0, "", "Feedforward added after the saturation, read at each sample"),
+        Variable("u", "output", "discrete", None, "",
+                 "Controller output: saturated, delayed PID value plus u_ff, held from one sample to the next",
+                 depends_on=("r", "y", "u_ff")),
+        Variable("e", "local", "discrete", None, "", "Control error r - y at the last sample"),
+        Variable("v", "local", "discrete", None, "", "Unsaturated PID value computed at the last sample"),
+        Variable("u_I", "local", "discrete", None, "", "Integrator state after the last sample"),
+        Variable("t_sample", "local", "discrete", None, "s", "Time of the last sample taken"),
+        _t_mode(),
+        Variable("n_d", "parameter", "fixed", 1, "",
+                 f"Derivative span in samples: (s(k) - s(k-n_d)) / (n_d*T_s), 1..{CONTROLLER_MAX_SAMPLES}",
+                 type="Integer"),
+        Variable("delay", "parameter", "fixed", 0, "",
+                 f"Pure delay of the output in samples, 0..{CONTROLLER_MAX_SAMPLES}", type="Integer"),
+        _mode("Saturation of the last computed value: -1 at u_min, 0 inside, +1 at u_max"),
+        Variable("derivative_on_measurement", "parameter", "fixed", False, "",
+                 "The derivative acts on -y instead of the error r - y (no kick on reference steps)",
+                 type="Boolean"),
+        Variable("saturated", "local", "discrete", None, "", "The last computed value was saturated",
+                 type="Boolean"),
+    ),
+)
+
+# The rig's components: their parameters form the rig's parameter table.
 COMPONENTS: dict[str, Component] = {c.name: c for c in (CURRENT_LOOP, CART, PENDULUM)}
+# Components that are no part of the rig, used around it in systems (a controller in the loop).
+CONTROL_COMPONENTS: dict[str, Component] = {c.name: c for c in (CONTROLLER,)}
+# Every component FMU that `pendfmu build` makes.
+ALL_COMPONENTS: dict[str, Component] = {**COMPONENTS, **CONTROL_COMPONENTS}
 
 
 def parameter_table() -> dict[str, Variable]:

@@ -126,6 +126,11 @@ def _declaration(tokens: list[tuple[str, str]], protected: bool, where: str) -> 
         raise ModelicaSyntaxError(f"{where}: not a declaration: {_join(tokens)!r}")
     type_name, name = tokens[k][1], tokens[k + 1][1]
     rest = tokens[k + 2:]
+    if rest and rest[0][1] == "[":  # an array's dimensions (the Controller's shift registers): skipped
+        close = next((i for i, t in enumerate(rest) if t[1] == "]"), None)
+        if close is None:
+            raise ModelicaSyntaxError(f"{where}: {name}: unclosed array dimensions")
+        rest = rest[close + 1:]
     modifiers: dict[str, str] = {}
     if rest and rest[0][1] == "(":
         depth = 0
@@ -209,11 +214,12 @@ def read_class(name: str) -> ModelicaClass:
 
 _OPERATORS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
               ast.Pow: operator.pow, ast.USub: operator.neg, ast.UAdd: operator.pos}
-_CONSTANTS = {"pi": math.pi, "PendulumID.pi": math.pi}
+_CONSTANTS = {"pi": math.pi, "PendulumID.pi": math.pi, "true": 1.0, "false": 0.0}
 
 
 def evaluate(text: str) -> float:
-    """Value of a constant Modelica expression: numbers, pi, + - * / ^ and parentheses."""
+    """Value of a constant Modelica expression: numbers, pi, + - * / ^ and parentheses
+    (true and false as 1 and 0: a Boolean parameter's default)."""
     for name, value in _CONSTANTS.items():
         text = re.sub(rf"(?<![\w.]){re.escape(name)}(?![\w.])", repr(value), text)
     try:

@@ -12,7 +12,7 @@ import pytest
 from fmpy.model_description import read_build_description
 from fmpy.validation import validate_fmu
 
-from pendfmu.components import COMPONENTS, Component, Variable
+from pendfmu.components import ALL_COMPONENTS as COMPONENTS, Component, Variable
 from pendfmu.fmubuild import compute_guid
 from pendfmu.fmubuild.compiler import compile_sources
 

@@ -11,7 +11,7 @@ from datetime import timedelta
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pendfmu.components import COMPONENTS
+from pendfmu.components import ALL_COMPONENTS as COMPONENTS
 from pendfmu.simulator.component import ComponentFMU, FMUError
 
 SPECIAL = [0.0, -0.0, 1e-300, -1e-300, 5e-324, 1e-12, 1.0, -1.0, 1e12, -1e12, 1e300, -1e300, 1.7e308,
@@ -19,9 +19,18 @@ SPECIAL = [0.0, -0.0, 1e-300, -1e-300, 5e-324, 1e-12, 1.0, -1.0, 1e12, -1e12, 1e
 values = st.one_of(st.sampled_from(SPECIAL), st.floats(allow_nan=True, allow_infinity=True))
 
 
+INTEGERS = st.one_of(st.sampled_from([0, -1, 1, 2, 100, 101, -2**31, 2**31 - 1]), st.integers(-2**31, 2**31 - 1))
+
+
 def parameters_of(name):
-    names = sorted(COMPONENTS[name].parameters)
-    return st.dictionaries(st.sampled_from(names), values, max_size=4)
+    """Real parameters get any float; Integer and Boolean ones (the Controller's n_d, delay,
+    derivative_on_measurement) any value of their type."""
+    table = COMPONENTS[name].parameters
+    if all(v.type == "Real" for v in table.values()):  # the rig's components: the examples as ever
+        return st.dictionaries(st.sampled_from(sorted(table)), values, max_size=4)
+    kinds = {"Real": values, "Integer": INTEGERS, "Boolean": st.booleans()}
+    return st.dictionaries(st.sampled_from(sorted(table)), values, max_size=4).flatmap(
+        lambda chosen: st.fixed_dictionaries({n: kinds[table[n].type] for n in chosen}))
 
 
 def inputs_of(name):
@@ -62,6 +71,7 @@ def fuzz(name):
 test_fuzz_current_loop = fuzz("CurrentLoop")
 test_fuzz_cart = fuzz("Cart")
 test_fuzz_pendulum = fuzz("Pendulum")
+test_fuzz_controller = fuzz("Controller")
 
 
 def test_stiff_parameters_fail_with_a_reason_instead_of_hanging():

@@ -13,12 +13,12 @@ from pathlib import Path
 import fmpy
 import pytest
 
-from pendfmu.components import COMPONENTS
+from pendfmu.components import ALL_COMPONENTS as COMPONENTS
 from pendfmu.fmubuild.compiler import FMI_HEADERS
 
 DRIVER = Path(__file__).with_name("memcheck") / "driver.c"
 # a parameter whose negative value is non-physical, per component
-NEGATIVE = {"CurrentLoop": "T_i", "Cart": "m_c", "Pendulum": "m_p"}
+NEGATIVE = {"CurrentLoop": "T_i", "Cart": "m_c", "Pendulum": "m_p", "Controller": "T_s"}
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind not installed")]

@@ -237,3 +237,11 @@ void model_outputs(Instance *inst, double t, const double *x) {
     R(F_F) = friction_force(&f, MODE, x[S_v], F_A);
     FLAG(stuck) = MODE == 0;
 }
+
+/* No time events: a continuous model. */
+double model_next_time_event(const Instance *inst) {
+    (void)inst;
+    return INFINITY;
+}
+
+void model_time_event(Instance *inst, double t, bool commit) { (void)inst, (void)t, (void)commit; }

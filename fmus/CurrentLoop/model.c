@@ -82,3 +82,11 @@ void model_outputs(Instance *inst, double t, const double *x) {
     R(I) = x[S_I_mean] + R(a_h) * sin(2.0 * PI * R(f_h) * t + R(phase_h));
     FLAG(saturated) = MODE != 0;
 }
+
+/* No time events: a continuous model. */
+double model_next_time_event(const Instance *inst) {
+    (void)inst;
+    return INFINITY;
+}
+
+void model_time_event(Instance *inst, double t, bool commit) { (void)inst, (void)t, (void)commit; }

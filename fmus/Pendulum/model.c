@@ -140,3 +140,11 @@ void model_outputs(Instance *inst, double t, const double *x) {
     R(T_F) = T_F;
     FLAG(stuck) = MODE == 0;
 }
+
+/* No time events: a continuous model. */
+double model_next_time_event(const Instance *inst) {
+    (void)inst;
+    return INFINITY;
+}
+
+void model_time_event(Instance *inst, double t, bool commit) { (void)inst, (void)t, (void)commit; }

@@ -102,6 +102,38 @@ static bool null_arrays(Instance *inst, const char *function, size_t n, const vo
 
 /* ---------------------------------------------------------------- outputs */
 
+/* Whether a time event falls on the instance's current time and is not yet taken. */
+static bool time_event_due(const Instance *inst) {
+    const double t = inst->s.time;
+    return model_next_time_event(inst) <= t + TIME_EVENT_TOLERANCE * fmax(1.0, fabs(t));
+}
+
+/* Take every time event due at the current time (inputs evaluated there). Returns false
+ * (logged) when they do not end: events closer than the time tolerance. */
+static bool take_due_time_events(Instance *inst) {
+    for (int k = 0; time_event_due(inst); k++) {
+        if (k >= MAX_EVENT_ITERATIONS) {
+            log_error(inst, "t = %.12g s: more than %d time events at one instant (events closer than %g s)",
+                      inst->s.time, MAX_EVENT_ITERATIONS, TIME_EVENT_TOLERANCE * fmax(1.0, fabs(inst->s.time)));
+            return false;
+        }
+        solver_inputs_at(inst, inst->s.time);
+        model_time_event(inst, inst->s.time, true);
+    }
+    return true;
+}
+
+/* Compute outputs and locals. In Co-Simulation, a time event on the current communication
+ * point that the FMU has not taken yet (the sample at the end of the last step, or at the
+ * start time) is previewed: the outputs are those of the event with the inputs the master has
+ * set at this point. The event itself is taken when the next step leaves the point, so that
+ * inputs set after a step are the ones the sample sees. */
+static void compute_outputs(Instance *inst) {
+    model_outputs(inst, inst->s.time, inst->s.x);
+    if (inst->type == fmi2CoSimulation && time_event_due(inst))
+        model_time_event(inst, inst->s.time, false);
+}
+
 /* Bring outputs up to date. Between Co-Simulation steps an input may have changed since
  * the last step: the mode is made consistent first, as the next step would. */
 static bool update_outputs(Instance *inst) {
@@ -113,7 +145,7 @@ static bool update_outputs(Instance *inst) {
             if (!solver_event_iteration(inst, inst->s.time)) return false;
         }
     }
-    model_outputs(inst, inst->s.time, inst->s.x);
+    compute_outputs(inst);
     inst->s.outputs = OUTPUTS_CURRENT;
     return true;
 }
@@ -252,7 +284,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     char why[512];
     if (!model_check_parameters(inst, why, sizeof why)) return fail(inst, "%s", why);
     if (!solver_initialize(inst)) return fail(inst, "fmi2ExitInitializationMode: initialization failed");
-    model_outputs(inst, inst->s.time, inst->s.x);
+    compute_outputs(inst);
     inst->s.outputs = OUTPUTS_CURRENT;
     inst->s.phase = inst->type == fmi2CoSimulation ? FMU_STEP_COMPLETE : FMU_EVENT_MODE;
     return fmi2OK;
@@ -381,8 +413,11 @@ fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t
         if (vr[k] < VR_INTEGER_BASE || vr[k] >= VR_INTEGER_BASE + N_INTEGER)
             return fail(inst, "fmi2SetInteger: unknown value reference %u", vr[k]);
         const DiscreteInfo *info = &INTEGER_INFO[vr[k] - VR_INTEGER_BASE];
-        return refuse_set(inst, "fmi2SetInteger", info->name, info->causality);
+        if (!settable(inst, info->causality)) return refuse_set(inst, "fmi2SetInteger", info->name, info->causality);
     }
+    /* Integer parameters have no table range: model_check_parameters judges them. */
+    for (size_t k = 0; k < nvr; k++) inst->s.i[vr[k] - VR_INTEGER_BASE] = value[k];
+    if (nvr > 0) inst->s.outputs = OUTPUTS_STALE;
     return fmi2OK;
 }
 
@@ -393,8 +428,10 @@ fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t
         if (vr[k] < VR_BOOLEAN_BASE || vr[k] >= VR_BOOLEAN_BASE + N_BOOLEAN)
             return fail(inst, "fmi2SetBoolean: unknown value reference %u", vr[k]);
         const DiscreteInfo *info = &BOOLEAN_INFO[vr[k] - VR_BOOLEAN_BASE];
-        return refuse_set(inst, "fmi2SetBoolean", info->name, info->causality);
+        if (!settable(inst, info->causality)) return refuse_set(inst, "fmi2SetBoolean", info->name, info->causality);
     }
+    for (size_t k = 0; k < nvr; k++) inst->s.b[vr[k] - VR_BOOLEAN_BASE] = value[k] != fmi2False;
+    if (nvr > 0) inst->s.outputs = OUTPUTS_STALE;
     return fmi2OK;
 }
 
@@ -553,7 +590,26 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     if (s->uder_set && !had_derivatives) s->uder_set = false;
     if (had_derivatives)
         for (int j = 0; j < N_INPUTS; j++) s->u_base[INPUT_VR[j]] = s->r[INPUT_VR[j]];
-    if (!solver_do_step(inst, currentCommunicationPoint + communicationStepSize))
+    /* Time events: one due at the start point is taken now, with the inputs the master set
+     * there; one inside the step with the inputs interpolated (or held) to it, the states
+     * integrated up to it first; one at the end point is left to the next step, which sees
+     * the inputs of that point (meanwhile the outputs preview it: compute_outputs). */
+    const double t_end = currentCommunicationPoint + communicationStepSize;
+    if (communicationStepSize > 0.0 && !take_due_time_events(inst))
+        return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
+    double events = 0.0;
+    for (double t_event = model_next_time_event(inst);
+         t_event < t_end - TIME_EVENT_TOLERANCE * fmax(1.0, fabs(t_end)); t_event = model_next_time_event(inst)) {
+        if (++events > MAX_INTERNAL_STEPS)
+            return fail(inst, "fmi2DoStep: a step of %g s holds more than %.0f time events (samples): take shorter "
+                        "steps", communicationStepSize, MAX_INTERNAL_STEPS);
+        if (t_event > s->time && !solver_do_step(inst, t_event))
+            return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
+        s->time = fmax(s->time, t_event);
+        if (!take_due_time_events(inst))
+            return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
+    }
+    if (!solver_do_step(inst, t_end))
         return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
     s->uder_set = false;
     for (int j = 0; j < N_INPUTS; j++) s->u_base[INPUT_VR[j]] = s->r[INPUT_VR[j]];
@@ -612,7 +668,7 @@ fmi2Status fmi2EnterEventMode(fmi2Component c) {
 fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
     CHECK("fmi2NewDiscreteStates", FMU_EVENT_MODE, fmi2ModelExchange);
     if (!eventInfo) return fail(inst, "fmi2NewDiscreteStates: NULL eventInfo");
-    double before[N_STATES];
+    double before[N_STATES_ALLOC];
     memcpy(before, inst->s.x, sizeof before);
     if (!solver_event_iteration(inst, inst->s.time))
         return fail(inst, "fmi2NewDiscreteStates: event iteration failed");
@@ -620,8 +676,10 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *eventInfo) {
     eventInfo->terminateSimulation = fmi2False;
     eventInfo->nominalsOfContinuousStatesChanged = fmi2False;
     eventInfo->valuesOfContinuousStatesChanged = memcmp(before, inst->s.x, sizeof before) != 0;
-    eventInfo->nextEventTimeDefined = fmi2False;
-    eventInfo->nextEventTime = 0.0;
+    if (!take_due_time_events(inst)) return fail(inst, "fmi2NewDiscreteStates: time events failed");
+    const double next_event = model_next_time_event(inst);
+    eventInfo->nextEventTimeDefined = isfinite(next_event) ? fmi2True : fmi2False;
+    eventInfo->nextEventTime = isfinite(next_event) ? next_event : 0.0;
     inst->s.outputs = OUTPUTS_STALE;
     return fmi2OK;
 }
@@ -638,7 +696,7 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStat
     CHECK("fmi2CompletedIntegratorStep", FMU_CONTINUOUS_MODE, fmi2ModelExchange);
     if (!enterEventMode || !terminateSimulation) return fail(inst, "fmi2CompletedIntegratorStep: NULL argument");
     /* A safety net: an indicator that is negative now means an event was stepped over. */
-    double z[N_EVENT_INDICATORS];
+    double z[N_EVENT_INDICATORS_ALLOC];
     model_event_indicators(inst, inst->s.time, inst->s.x, z);
     bool inconsistent = false;
     for (int k = 0; k < N_EVENT_INDICATORS; k++) inconsistent |= z[k] < 0.0;
@@ -657,25 +715,25 @@ fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
 
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
     CHECK("fmi2SetContinuousStates", FMU_CONTINUOUS_MODE, fmi2ModelExchange);
-    if (!x || nx != N_STATES) return fail(inst, "fmi2SetContinuousStates: %zu states given, %d expected", nx, N_STATES);
+    if ((nx > 0 && !x) || nx != N_STATES) return fail(inst, "fmi2SetContinuousStates: %zu states given, %d expected", nx, N_STATES);
     for (size_t k = 0; k < nx; k++)
         if (!isfinite(x[k])) return fail(inst, "fmi2SetContinuousStates: state %s = %g is not finite",
                                          REAL_INFO[STATE_VR[k]].name, x[k]);
-    memcpy(inst->s.x, x, sizeof inst->s.x);
+    memcpy(inst->s.x, x, N_STATES * sizeof(double));
     inst->s.outputs = OUTPUTS_STALE;
     return fmi2OK;
 }
 
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
     CHECK("fmi2GetDerivatives", GETTABLE & ~FMU_INITIALIZATION, fmi2ModelExchange);
-    if (!derivatives || nx != N_STATES) return fail(inst, "fmi2GetDerivatives: %zu derivatives asked, %d states", nx, N_STATES);
+    if ((nx > 0 && !derivatives) || nx != N_STATES) return fail(inst, "fmi2GetDerivatives: %zu derivatives asked, %d states", nx, N_STATES);
     model_derivatives(inst, inst->s.time, inst->s.x, derivatives);
     return fmi2OK;
 }
 
 fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni) {
     CHECK("fmi2GetEventIndicators", GETTABLE & ~FMU_INITIALIZATION, fmi2ModelExchange);
-    if (!eventIndicators || ni != N_EVENT_INDICATORS)
+    if ((ni > 0 && !eventIndicators) || ni != N_EVENT_INDICATORS)
         return fail(inst, "fmi2GetEventIndicators: %zu indicators asked, %d exist", ni, N_EVENT_INDICATORS);
     model_event_indicators(inst, inst->s.time, inst->s.x, eventIndicators);
     return fmi2OK;
@@ -683,14 +741,14 @@ fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], s
 
 fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {
     CHECK("fmi2GetContinuousStates", GETTABLE & ~FMU_INITIALIZATION, fmi2ModelExchange);
-    if (!x || nx != N_STATES) return fail(inst, "fmi2GetContinuousStates: %zu states asked, %d exist", nx, N_STATES);
-    memcpy(x, inst->s.x, sizeof inst->s.x);
+    if ((nx > 0 && !x) || nx != N_STATES) return fail(inst, "fmi2GetContinuousStates: %zu states asked, %d exist", nx, N_STATES);
+    memcpy(x, inst->s.x, N_STATES * sizeof(double));
     return fmi2OK;
 }
 
 fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx) {
     CHECK("fmi2GetNominalsOfContinuousStates", ANY_PHASE & ~FMU_ERROR, fmi2ModelExchange);
-    if (!x_nominal || nx != N_STATES) return fail(inst, "fmi2GetNominalsOfContinuousStates: %zu asked, %d exist", nx, N_STATES);
+    if ((nx > 0 && !x_nominal) || nx != N_STATES) return fail(inst, "fmi2GetNominalsOfContinuousStates: %zu asked, %d exist", nx, N_STATES);
     for (size_t k = 0; k < nx; k++) x_nominal[k] = 1.0;
     return fmi2OK;
 }

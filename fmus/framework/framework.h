@@ -34,6 +34,16 @@
 
 #define PI 3.14159265358979323846
 
+/* Array lengths that stay legal C for a model without continuous states or event
+ * indicators (a sampled controller): the arrays keep one unused slot. Loops and copies
+ * run over N_STATES and N_EVENT_INDICATORS. */
+#define N_STATES_ALLOC (N_STATES > 0 ? N_STATES : 1)
+#define N_EVENT_INDICATORS_ALLOC (N_EVENT_INDICATORS > 0 ? N_EVENT_INDICATORS : 1)
+
+/* Two time events closer than this (relative to max(1, |t|)) are the same instant: a
+ * sample time and a communication point that differ by rounding coincide. */
+#define TIME_EVENT_TOLERANCE 1e-9
+
 /* Slots of DynamicState.memo */
 #define MEMO_SIZE 12
 /* Slots of DynamicState.derived */
@@ -64,7 +74,7 @@ typedef struct {
 extern const RealInfo REAL_INFO[N_REAL];
 extern const DiscreteInfo INTEGER_INFO[N_INTEGER];
 extern const DiscreteInfo BOOLEAN_INFO[N_BOOLEAN];
-extern const unsigned STATE_VR[N_STATES];
+extern const unsigned STATE_VR[N_STATES_ALLOC];
 extern const unsigned INPUT_VR[N_INPUTS];
 
 /* The states of the FMI 2.0 call sequence, as bits so that each function can name the
@@ -93,7 +103,7 @@ typedef struct {
     double r[N_REAL];
     int i[N_INTEGER];
     bool b[N_BOOLEAN];
-    double x[N_STATES];
+    double x[N_STATES_ALLOC];
     /* Co-Simulation input interpolation: u(t) = u_base + sum_k taylor[k-1] (t-uder_time)^k,
      * taylor[k-1] being the k-th derivative over k! */
     double u_base[N_REAL];
@@ -114,6 +124,11 @@ typedef struct {
     /* Constants a model derives from its parameters in model_initial_states (parameters are
      * fixed from then on), so that the equations evaluated at every RK4 stage stay short. */
     double derived[DERIVED_SIZE];
+#ifdef MODEL_STORE_SIZE
+    /* A sampled model's discrete state (sample histories, delay line, integrator), laid out
+     * by the model; only components whose table asks for it have one. */
+    double store[MODEL_STORE_SIZE];
+#endif
 } DynamicState;
 
 typedef struct {
@@ -182,5 +197,17 @@ bool model_update_mode(Instance *inst, double t, double *x);
 
 /* Fill outputs and local variables (r, i, b) from t, x, inputs and the mode. */
 void model_outputs(Instance *inst, double t, const double *x);
+
+/* Time events: instants a model fixes in advance (the samples of a discrete controller).
+ * The time of the next time event not yet taken, INFINITY when there is none (a purely
+ * continuous model). */
+double model_next_time_event(const Instance *inst);
+
+/* The time event at t = model_next_time_event(), with the inputs evaluated at t. With
+ * `commit`, the event is taken: the model updates its discrete state and outputs, and the
+ * next time event moves on. Without, the model only sets the outputs the event would give
+ * with the current inputs and changes nothing else: a Co-Simulation master may still set
+ * the inputs of a communication point on which an event falls (see fmi2DoStep). */
+void model_time_event(Instance *inst, double t, bool commit);
 
 #endif

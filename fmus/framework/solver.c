@@ -83,7 +83,7 @@ static void advance(Instance *inst, double t, const double *x, double h, double 
  * are constant (derivative 0) steps (p, v) bit for bit as a two-state joint. */
 FLATTEN static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
     const double p = x[0], v = x[1], half = 0.5 * h;
-    double stage[N_STATES], d1[N_STATES], d2[N_STATES], d3[N_STATES], d4[N_STATES];
+    double stage[N_STATES_ALLOC], d1[N_STATES_ALLOC], d2[N_STATES_ALLOC], d3[N_STATES_ALLOC], d4[N_STATES_ALLOC];
     model_derivatives(inst, t, x, d1);
     const double f1 = d1[1];
     solver_inputs_at(inst, t + half);
@@ -118,7 +118,7 @@ static void derivatives_at(Instance *inst, double t, const double *x, double *dx
 /* One classic Runge-Kutta step of size h from (t, x) into x_out; the inputs are already
  * evaluated at t (by the caller). */
 FLATTEN static void rk4_step(Instance *inst, double t, const double *x, double h, double *x_out) {
-    double k1[N_STATES], k2[N_STATES], k3[N_STATES], k4[N_STATES], tmp[N_STATES];
+    double k1[N_STATES_ALLOC], k2[N_STATES_ALLOC], k3[N_STATES_ALLOC], k4[N_STATES_ALLOC], tmp[N_STATES_ALLOC];
     model_derivatives(inst, t, x, k1);
     for (int j = 0; j < N_STATES; j++) tmp[j] = x[j] + 0.5 * h * k1[j];
     derivatives_at(inst, t + 0.5 * h, tmp, k2);
@@ -133,7 +133,7 @@ FLATTEN static void rk4_step(Instance *inst, double t, const double *x, double h
 
 /* Indicator `which` after a sub-step of length tau from (t, x). */
 static double indicator_after(Instance *inst, double t, const double *x, double tau, int which) {
-    double x_tau[N_STATES], z[N_EVENT_INDICATORS];
+    double x_tau[N_STATES_ALLOC], z[N_EVENT_INDICATORS_ALLOC];
     advance(inst, t, x, tau, x_tau);
     indicators_at(inst, t + tau, x_tau, z);
     return z[which];
@@ -192,12 +192,16 @@ static bool event_iteration(Instance *inst, double t, double *z) {
 }
 
 bool solver_event_iteration(Instance *inst, double t) {
-    double z[N_EVENT_INDICATORS];
+    double z[N_EVENT_INDICATORS_ALLOC];
     return event_iteration(inst, t, z);
 }
 
 bool solver_initialize(Instance *inst) {
+#if HAS_SOLVER_STEP
     inst->s.h_rk4 = fmin(R(solver_step), model_max_step(inst));
+#else
+    inst->s.h_rk4 = model_max_step(inst);
+#endif
     model_initial_states(inst);
     inst->s.r[VR_t_mode] = inst->s.time;
     return solver_event_iteration(inst, inst->s.time);
@@ -214,7 +218,7 @@ FLATTEN bool solver_do_step(Instance *inst, double t_end) {
     DynamicState *s = &inst->s;
     const double t_start = s->time;
     double t = t_start;
-    double z0[N_EVENT_INDICATORS], z1[N_EVENT_INDICATORS], x1[N_STATES];
+    double z0[N_EVENT_INDICATORS_ALLOC], z1[N_EVENT_INDICATORS_ALLOC], x1[N_STATES_ALLOC];
 
     /* Inputs may have jumped at the communication point: make the mode consistent. */
     if (!event_iteration(inst, t, z0)) return false;
@@ -250,7 +254,7 @@ FLATTEN bool solver_do_step(Instance *inst, double t_end) {
             }
         }
         if (which >= 0 && tau < h) advance(inst, t, s->x, tau, x1);
-        memcpy(s->x, x1, sizeof s->x);
+        memcpy(s->x, x1, N_STATES * sizeof(double));
         t = (tau == remaining) ? t_end : t + tau;
         s->time = t;
         if (!all_finite(s->x)) {

@@ -101,7 +101,7 @@ static int set_inputs(const System *s, const Plan *plan, int unit, size_t k, con
         const size_t i = ports->index[j];
         if (ports->from_link[j]) {
             values[j] = start[i];
-            slopes[j] = h > 0 ? (end[i] - start[i]) / h : 0.0;
+            slopes[j] = h > 0 && !s->links[i].hold ? (end[i] - start[i]) / h : 0.0;
         } else {
             const double value = s->drives[i].values[k];
             values[j] = offset != 0.0 ? value + s->drives[i].slopes[k] * offset : value;

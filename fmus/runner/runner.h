@@ -46,6 +46,7 @@ typedef struct {
 typedef struct {
     int source, target;
     fmi2ValueReference source_vr, target_vr;
+    int hold; /* 1: a discrete output, held over a step (master.py: held) */
 } Link;
 
 typedef struct {

@@ -1,4 +1,4 @@
-"""Compile the component FMUs (CurrentLoop, Cart, Pendulum) into fmus/."""
+"""Compile the component FMUs (CurrentLoop, Cart, Pendulum, Controller) into fmus/."""
 
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pendfmu.components import COMPONENTS
+from pendfmu.components import ALL_COMPONENTS
 from pendfmu.fmubuild.compiler import BuildError, build_fmu, compute_guid, fmu_path
 
 __all__ = ["BuildError", "build_all", "build_fmu", "compute_guid", "fmu_path", "ensure_fmu"]
@@ -12,11 +12,11 @@ __all__ = ["BuildError", "build_all", "build_fmu", "compute_guid", "fmu_path", "
 
 def build_all(force: bool = False) -> dict[str, Path]:
     """Build every component FMU that is missing or stale; return their paths by name."""
-    return {name: build_fmu(component, force=force) for name, component in COMPONENTS.items()}
+    return {name: build_fmu(component, force=force) for name, component in ALL_COMPONENTS.items()}
 
 
 def ensure_fmu(name: str) -> Path:
     """The path of component `name`'s FMU, built first if missing or stale."""
-    if name not in COMPONENTS:
-        raise KeyError(f"no component {name!r}; known: {', '.join(COMPONENTS)}")
-    return build_fmu(COMPONENTS[name])
+    if name not in ALL_COMPONENTS:
+        raise KeyError(f"no component {name!r}; known: {', '.join(ALL_COMPONENTS)}")
+    return build_fmu(ALL_COMPONENTS[name])

@@ -37,8 +37,10 @@ def variables_header(component: Component, guid: str) -> str:
     reals = component.of(type="Real")
     integers = component.of(type="Integer")
     booleans = component.of(type="Boolean")
-    if [v.name for v in integers] != ["mode"]:
-        raise ValueError(f"{component.name}: the framework expects exactly one Integer, 'mode'")
+    if "mode" not in [v.name for v in integers]:
+        raise ValueError(f"{component.name}: the framework expects an Integer 'mode'")
+    if any(v.causality not in ("parameter", "local") for v in integers + booleans):
+        raise ValueError(f"{component.name}: Integer and Boolean variables are parameters or locals")
     if not booleans:
         raise ValueError(f"{component.name}: at least one Boolean variable is expected")
     lines = [
@@ -57,12 +59,15 @@ def variables_header(component: Component, guid: str) -> str:
         f"#define N_INPUTS {len(component.of(causality='input', type='Real'))}",
         f"#define N_EVENT_INDICATORS {component.event_indicators}",
         f"#define SECOND_ORDER {int(_is_second_order(component))}",
+        f"#define HAS_SOLVER_STEP {int(any(v.name == 'solver_step' for v in component.variables))}",
+        *([f"#define MODEL_STORE_SIZE {component.store_size}"] if component.store_size else []),
         "",
         "enum ValueReference {",
     ]
     lines += [f"    VR_{c_identifier(v.name)} = {component.value_reference(v.name)}," for v in component.variables]
-    lines += ["};", "", "enum StateIndex {"]
-    lines += [f"    S_{c_identifier(v.name)} = {k}," for k, v in enumerate(component.states)]
+    if component.states:
+        lines += ["};", "", "enum StateIndex {"]
+        lines += [f"    S_{c_identifier(v.name)} = {k}," for k, v in enumerate(component.states)]
     lines += ["};", "", "#endif", ""]
     return "\n".join(lines)
 
@@ -88,8 +93,8 @@ def variables_source(component: Component) -> str:
     lines += [_discrete_info(v) for v in component.of(type="Integer")]
     lines += ["};", "", "const DiscreteInfo BOOLEAN_INFO[N_BOOLEAN] = {"]
     lines += [_discrete_info(v) for v in component.of(type="Boolean")]
-    lines += ["};", "", "const unsigned STATE_VR[N_STATES] = {"]
-    lines += [f"    VR_{c_identifier(v.name)}," for v in component.states]
+    lines += ["};", "", "const unsigned STATE_VR[N_STATES_ALLOC] = {"]
+    lines += [f"    VR_{c_identifier(v.name)}," for v in component.states] or ["    0, /* no states: a placeholder */"]
     lines += ["};", "", "const unsigned INPUT_VR[N_INPUTS] = {"]
     lines += [f"    VR_{c_identifier(v.name)}," for v in component.of(causality="input", type="Real")]
     lines += ["};", ""]

@@ -105,14 +105,18 @@ def model_description(component: Component, guid: str, sources: list[str]) -> by
     outputs = etree.SubElement(structure, "Outputs")
     for var in component.of(causality="output"):
         _unknown(outputs, component, var, with_dependencies=True)
-    derivatives = etree.SubElement(structure, "Derivatives")
-    for var in component.variables:
-        if var.derivative_of:
-            _unknown(derivatives, component, var, with_dependencies=True)
-    initial = etree.SubElement(structure, "InitialUnknowns")
-    for var in component.variables:
-        if var.causality == "output" or var.state or var.derivative_of:
-            _unknown(initial, component, var, with_dependencies=False)
+    # The schema wants each list present only with at least one element (a model without
+    # continuous states has no Derivatives).
+    if any(var.derivative_of for var in component.variables):
+        derivatives = etree.SubElement(structure, "Derivatives")
+        for var in component.variables:
+            if var.derivative_of:
+                _unknown(derivatives, component, var, with_dependencies=True)
+    if any(var.causality == "output" or var.state or var.derivative_of for var in component.variables):
+        initial = etree.SubElement(structure, "InitialUnknowns")
+        for var in component.variables:
+            if var.causality == "output" or var.state or var.derivative_of:
+                _unknown(initial, component, var, with_dependencies=False)
     return etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True)
 
 

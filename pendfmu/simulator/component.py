@@ -23,7 +23,7 @@ from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE
 from fmpy.logging import addLoggerProxy
 
 from pendfmu.errors import BadInput, FMUError
-from pendfmu.components import COMPONENTS
+from pendfmu.components import ALL_COMPONENTS as COMPONENTS
 from pendfmu.fmubuild import ensure_fmu
 from pendfmu.fmubuild.compiler import model_description
 from pendfmu.simulator.native import unit_of
@@ -53,6 +53,15 @@ def unpacked_fmu(name: str, fmu: str | Path | None = None, copy: int = 0) -> tup
         atexit.register(shutil.rmtree, directory, True)
         _UNPACKED[key] = (directory, md)
     return _UNPACKED[key]
+
+
+def discrete_outputs(name: str, fmu: str | Path | None = None) -> set[str]:
+    """The outputs of component `name` (or of the FMU file) whose variability is discrete:
+    piecewise constant, changing only at events (a sampled controller's output, held from
+    one sample to the next). A master holds such a signal over a communication step instead
+    of interpolating it: a line towards the next sample's value would apply it early."""
+    md = unpacked_fmu(name, fmu)[1]
+    return {v.name for v in md.modelVariables if v.causality == "output" and v.variability == "discrete"}
 
 
 class FMU2SlaveCached(FMU2Slave):
@@ -224,7 +233,19 @@ class ComponentFMU:
 
     def set(self, **values: float) -> None:
         names = list(values)
-        self._call(self.slave.setReal, self._refs(names), [float(values[n]) for n in names])
+        refs = self._refs(names)
+        if all(self.types[n] == "Real" for n in names):
+            self._call(self.slave.setReal, refs, [float(values[n]) for n in names])
+            return
+        # Integer and Boolean variables (the Controller's n_d, delay, derivative_on_measurement)
+        for kind, setter, cast in (("Real", self.slave.setReal, float), ("Integer", self.slave.setInteger, int),
+                                   ("Boolean", self.slave.setBoolean, bool)):
+            chosen = [(ref, values[n]) for n, ref in zip(names, refs) if self.types[n] == kind]
+            if chosen:
+                if kind != "Real" and any(float(value) != int(value) for _, value in chosen):
+                    raise ParameterError(f"{self.name}: an {kind} variable needs a whole number, not "
+                                         f"{', '.join(str(value) for _, value in chosen)}")
+                self._call(setter, [ref for ref, _ in chosen], [cast(value) for _, value in chosen])
 
     def get(self, *names: str) -> list[float]:
         refs = self._refs(names)

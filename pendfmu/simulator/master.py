@@ -29,7 +29,9 @@ import numpy as np
 import pandas as pd
 from fmpy.fmi1 import FMICallException
 
-from pendfmu.simulator.component import PROCESS_POOL, ComponentFMU, FMUError, once_per_process, pooled_instance, unpacked_fmu
+from pendfmu.simulator.component import (
+    PROCESS_POOL, ComponentFMU, FMUError, discrete_outputs, once_per_process, pooled_instance, unpacked_fmu,
+)
 from pendfmu.simulator.coupled import CoupledSteps, CouplingError
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order, tear_of
 
@@ -88,7 +90,7 @@ def feedthrough_of(component_type: str, fmu: str | Path | None = None) -> dict[s
 class Master(CoupledSteps):
     """A system of component FMUs connected output to input.
 
-    `components` maps instance names to component types (CurrentLoop, Cart, Pendulum);
+    `components` maps instance names to component types (CurrentLoop, Cart, Pendulum, Controller);
     `parameters` maps instance names to their parameter values; `fmus` optionally maps
     instance names to FMU files to use instead of the ones built from source."""
 
@@ -114,6 +116,10 @@ class Master(CoupledSteps):
             if found is not None:
                 self.order[k] = found[1]
                 self.tears[tuple(found[1])] = found[0]
+        # Signals from discrete outputs (a sampled controller's) are held over a step, not
+        # interpolated: they change only at events (discrete_outputs).
+        self.held = {(c.source, c.output) for c in self.connections
+                     if c.output in discrete_outputs(self.types[c.source], self.fmus.get(c.source))}
         self.loops = algebraic_loops(self.connections,
                                      {n: feedthrough_of(t, self.fmus.get(n)) for n, t in self.types.items()})
         self.iterations = 0  # loop iterations done in the last run, for diagnostics
@@ -288,8 +294,8 @@ class Master(CoupledSteps):
         for (name, variable), signal in external.items():
             values, slopes = self._drive((name, variable), signal, grid, steps)
             drives.append((index[name], fmus[name].vr[variable], values, slopes))
-        links = [(index[c.source], index[c.target], fmus[c.source].vr[c.output], fmus[c.target].vr[c.input])
-                 for c in self.connections]
+        links = [(index[c.source], index[c.target], fmus[c.source].vr[c.output], fmus[c.target].vr[c.input],
+                  int((c.source, c.output) in self.held)) for c in self.connections]
         groups = [[index[name] for name in group] for group in self.order]
         tears = [self.tears.get(tuple(group)) for group in self.order]
         tears = [(index[tear[0]], fmus[tear[0]].vr[tear[1]]) if tear else None for tear in tears]
@@ -338,7 +344,7 @@ class Master(CoupledSteps):
                 if c.target == name:
                     key = (c.source, c.output)
                     names.append(c.input), values.append(start[key])
-                    slopes.append((end[key] - start[key]) / length if length > 0 else 0.0)
+                    slopes.append((end[key] - start[key]) / length if length > 0 and key not in self.held else 0.0)
             if not names:
                 continue
             fmu = fmus[name]

@@ -52,6 +52,7 @@ class Variable:
     low: float | None
     high: float | None
     unit: str
+    type: str = "Real"  # Real, or Integer / Boolean for a parameter (values as numbers: Boolean 0 or 1)
     low_open = False  # FMI 2 ranges are closed: min <= value <= max (pendfmu.ranges)
 
 
@@ -90,6 +91,12 @@ class Model:
                     port = Port(instance.name, v.name)
                     self.variables[port] = Variable(port, v.causality, _number(v.start), _number(v.min),
                                                     _number(v.max), v.unit or "")
+                elif v.type in ("Integer", "Boolean") and v.causality == "parameter":
+                    # A setting such as a controller's delay in samples: given and set as a number.
+                    port = Port(instance.name, v.name)
+                    start = _boolean(v.start) if v.type == "Boolean" else _number(v.start)
+                    self.variables[port] = Variable(port, v.causality, start, _number(v.min), _number(v.max), "",
+                                                    v.type)
         connected = {Port(c.target, c.input) for c in self.connections}
         self.order = stepping_order({n: i.kind for n, i in self.instances.items()}, self.connections)
         self.loops = algebraic_loops(self.connections, {n: _feedthrough(i) for n, i in self.instances.items()}) \
@@ -210,7 +217,12 @@ class Model:
             return str(error).split(": ", 1)[1]
         if not math.isfinite(value):
             return f"must be finite, got {value!r}"
-        for port in ports:  # every port a name sets must take the value
+        for port in ports:
+            kind = self.variables[port].type
+            if kind == "Integer" and value != int(value):
+                return f"{port} is an Integer parameter: {value!r} is not a whole number"
+            if kind == "Boolean" and value not in (0, 1):
+                return f"{port} is a Boolean parameter: give 0 or 1 (false or true), not {value!r}"  # every port a name sets must take the value
             problem = outside(str(port), value, [self.variables[port]])
             if problem:
                 return problem
@@ -259,6 +271,13 @@ def _suggestion(name: str, known: Iterable[str]) -> str:
 
     close = difflib.get_close_matches(name, list(known), n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _boolean(value) -> float | None:
+    """A Boolean start value as a number (1.0 true, 0.0 false)."""
+    if value is None or value == "":
+        return None
+    return 1.0 if str(value).lower() in ("true", "1") else 0.0
 
 
 def _number(value) -> float | None:

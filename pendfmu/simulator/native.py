@@ -55,7 +55,7 @@ class SystemUnit(ctypes.Structure):
 
 class Link(ctypes.Structure):
     _fields_ = [("source", ctypes.c_int), ("target", ctypes.c_int), ("source_vr", ctypes.c_uint),
-                ("target_vr", ctypes.c_uint)]
+                ("target_vr", ctypes.c_uint), ("hold", ctypes.c_int)]
 
 
 class Drive(ctypes.Structure):
@@ -119,11 +119,12 @@ def _array(kind, values):
     return (kind * max(len(values), 1))(*values)
 
 
-def run_system(slaves: list, links: list[tuple[int, int, int, int]], drives: list[tuple[int, int, np.ndarray,
+def run_system(slaves: list, links: list[tuple[int, int, int, int, int]], drives: list[tuple[int, int, np.ndarray,
                np.ndarray]], groups: list[list[int]], tears: list[tuple[int, int] | None], clocks: list[int | None],
                times: np.ndarray, record: np.ndarray, outputs: list[tuple[int, int]], tolerance: float,
                max_iterations: int) -> tuple[np.ndarray, System]:
     """Run the master's loop natively; returns (recorded outputs, the System with diagnostics).
+    `links` are (source unit, target unit, source vr, target vr, hold: 1 for a discrete output);
     `tears` gives each group's tear as (unit, value reference) of the torn output, or None;
     `clocks` each unit's value reference of t_mode (coupled.py), or None."""
     times = np.ascontiguousarray(times, dtype=float)

@@ -26,7 +26,7 @@ import numpy as np
 
 from pendfmu.errors import FMUError
 from pendfmu.recording.measurement import INPUT_DELAY
-from pendfmu.simulator.component import PROCESS_POOL, ComponentFMU, InstancePool, pooled_instance
+from pendfmu.simulator.component import PROCESS_POOL, ComponentFMU, InstancePool, discrete_outputs, pooled_instance
 from pendfmu.simulator.model import Model, ModelError, Port
 from pendfmu.simulator.native import run_single
 
@@ -156,7 +156,9 @@ class Replay:
                 names.append(c.input)
                 column = signals[Port(c.source, c.output)]
                 columns.append(column)
-                slopes.append(_slopes(points, column) if fmu.can_interpolate_inputs else None)
+                source = self.model.instances[c.source]
+                held = c.output in discrete_outputs(source.kind if source.fmu is None else source.name, source.fmu)
+                slopes.append(_slopes(points, column) if fmu.can_interpolate_inputs and not held else None)
         matrix = np.column_stack(columns) if columns else np.empty((len(points), 0))
         interpolate = any(s is not None and np.any(s) for s in slopes)
         slope_matrix = (np.column_stack([np.zeros(len(points)) if s is None else s for s in slopes])
