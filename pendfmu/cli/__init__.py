@@ -14,10 +14,11 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-from pendfmu.cli import build, demo, export, fit, rig, simulate
+from pendfmu.cli import build, demo, export, fit, rig, simulate, system
 from pendfmu.errors import EXIT_BAD_INPUT, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, FMUError, Suspicious
 
-SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export}
+SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export,
+               "system": system}
 
 
 class _Parser(argparse.ArgumentParser):

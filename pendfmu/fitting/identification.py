@@ -20,7 +20,7 @@ import numpy as np
 from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
 from pendfmu.fitting.experiment import Experiment
 from pendfmu.fitting.models import (checked_values, initial_map, load_model, mapping, model_experiments,
-                                    model_free_parameters, read_for)
+                                    model_free_parameters, read_for, without_aliases)
 from pendfmu.fitting.optimizer import GlobalOptions, optimize
 from pendfmu.fitting.plausibility import SuspiciousData, check_experiment, self_locking_switch, viscous_twins
 from pendfmu.fitting.progress import Progress
@@ -168,7 +168,8 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
         user = _user_model(model)
         stage = user.name
         drives, matches, initials = mapping(drive), mapping(match), initial_map(user, initial)
-        values = {**user.defaults(), **checked_values(user, params or {})}
+        given = checked_values(user, params or {})
+        values = without_aliases(user, user.defaults(), [*given, *(free or ()), *(fix or ())]) | given
         read = _parts(read_for(user, _listed(recordings), drives, matches, initials), windows, segment)
         experiments = model_experiments(user, read, values, drives, matches, initials, interpolation,
                                         per_recording, start)

@@ -76,6 +76,27 @@ def checked_values(model: Model, values: Mapping[str, object], where: str = "") 
     return checked
 
 
+def without_aliases(model: Model, values: Mapping[str, float], names: Sequence[str]) -> dict[str, float]:
+    """`values` without the keys that set the same parameter as one of `names` under
+    another name ("m_c" when the user wrote "Cart.m_c"): one port, one key, so the result
+    file says each value once and no order decides which of two spellings wins."""
+    taken = set()
+    for name in names:
+        try:
+            taken.add(frozenset(model.resolve(name, "parameter")))
+        except ModelError:
+            continue  # a measurement parameter, or checked later with its own message
+    kept = {}
+    for key, value in values.items():
+        try:
+            ports = frozenset(model.resolve(key, "parameter"))
+        except ModelError:
+            ports = None
+        if ports is None or ports not in taken or key in names:
+            kept[key] = value
+    return kept
+
+
 def initial_map(model: Model, given: Mapping[str, str] | None) -> dict[str, str]:
     """Signal -> the parameter of its initial value: `given`, else by the convention of
     MODEL.md and most exported models, an output `x` whose initial value is parameter `x0`."""

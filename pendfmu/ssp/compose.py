@@ -1,0 +1,100 @@
+"""A system of any FMUs, wired by name: what `pendfmu system` writes.
+
+The rig has its own builder (rig.py); anything else, such as pendfmu's controller around
+the cart (a closed-loop recording), a user's controller FMU around pendfmu's cart, or
+a drive FMU from another tool, is composed here:
+
+    compose({"Controller": "Controller", "Cart": "Cart"},
+            ["Controller.u=Cart.I", "Cart.x=Controller.y"],
+            {"Controller.K_p": 3.9e4, "Cart.m_c": 95.1})
+
+A component is a pendfmu component name (built on demand) or an FMU file. A parameter
+is written "Component.name", or bare where one component has it (a name several have
+must be qualified). Every parameter of every component is written, as the rig does, so
+the SSP states the whole system whatever FMU build it is later combined with.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from pendfmu.errors import BadInput
+from pendfmu.ssp.fmu import describe_fmu
+from pendfmu.ssp.model import Connection, Experiment, FmuComponent, ParameterValue, System
+
+_KINDS = {"Real": float, "Integer": int, "Boolean": bool}
+
+
+def _fmu_of(name: str, source: str | Path) -> Path:
+    """The FMU file of a component: a file, or pendfmu's own component of that name."""
+    from pendfmu.components import ALL_COMPONENTS
+    from pendfmu.fmubuild import ensure_fmu
+
+    path = Path(source)
+    if path.suffix.lower() == ".fmu":
+        if not path.is_file():
+            raise BadInput(f"component {name}: no FMU file {path}")
+        return path
+    if str(source) in ALL_COMPONENTS:
+        return ensure_fmu(str(source))
+    raise BadInput(f"component {name}: {source!r} is neither an FMU file (.fmu) nor a pendfmu component "
+                   f"({', '.join(ALL_COMPONENTS)})")
+
+
+def compose(components: Mapping[str, str | Path], connections: Sequence[str],
+            parameters: Mapping[str, float] | None = None, *, name: str = "System",
+            step_size: float | None = None, description: str = "") -> System:
+    """The System of these components (name -> pendfmu component or FMU file), connected
+    "Start.output=End.input", with these parameter values (see the module docstring)."""
+    fmus = {n: describe_fmu(_fmu_of(n, source)) for n, source in components.items()}
+    parts = {n: FmuComponent(n, f"resources/{d.path.name}", d.connectors, "CoSimulation", d.path)
+             for n, d in fmus.items()}
+    wires = []
+    for text in connections:
+        start, equals, end = text.partition("=")
+        if not equals:
+            raise BadInput(f"connection {text!r}: write it Start.output=End.input")
+        try:
+            wire = Connection.between(start.strip(), end.strip())
+        except ValueError as error:
+            raise BadInput(str(error)) from None
+        for element, connector, kind in ((wire.start_element, wire.start_connector, "output"),
+                                         (wire.end_element, wire.end_connector, "input")):
+            declared = {c.name: c.kind for c in parts[element].connectors} if element in parts else None
+            if declared is None:
+                raise BadInput(f"connection {text!r}: no component {element!r} ({', '.join(parts)})")
+            if declared.get(connector) != kind:
+                names = [c for c, k in declared.items() if k == kind]
+                raise BadInput(f"connection {text!r}: {element} has no {kind} {connector!r} ({', '.join(names)})")
+        wires.append(wire)
+    values = {n: dict(d.starts) for n, d in fmus.items()}
+    for key, value in (parameters or {}).items():
+        component, parameter = _target(key, fmus)
+        declared = next(c for c in fmus[component].connectors if c.name == parameter)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise BadInput(f"parameter {key} = {value!r}: not a finite number")
+        if declared.type == "Integer" and float(value) != int(value):
+            raise BadInput(f"parameter {key} = {value!r}: an Integer")
+        values[component][parameter] = ParameterValue(_KINDS[declared.type](value), declared.unit, declared.type)
+    used = {c.unit for d in fmus.values() for c in d.connectors if c.unit}
+    units = {u: d.units[u] for d in fmus.values() for u in sorted(used) if u in d.units}
+    return System(name, parts, wires, values, units, experiment=Experiment(0.0, None, step_size),
+                  description=description or f"{', '.join(parts)} composed by pendfmu")
+
+
+def _target(key: str, fmus) -> tuple[str, str]:
+    component, dot, parameter = key.partition(".")
+    if dot:
+        if component not in fmus:
+            raise BadInput(f"parameter {key}: no component {component!r} ({', '.join(fmus)})")
+        if parameter not in fmus[component].starts:
+            raise BadInput(f"parameter {key}: {component} has no parameter {parameter!r} "
+                           f"({', '.join(fmus[component].starts)})")
+        return component, parameter
+    owners = [n for n, d in fmus.items() if key in d.starts]
+    if len(owners) != 1:
+        where = f"{' and '.join(owners)} both have it: write Component.{key}" if owners else "no component has it"
+        raise BadInput(f"parameter {key}: {where}")
+    return owners[0], key

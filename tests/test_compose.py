@@ -1,0 +1,73 @@
+"""`pendfmu system` (pendfmu/ssp/compose.py): a system of components wired by name.
+
+The loop of test_controller_loop written by the command line instead of by hand must run
+to the same numbers as that test's independent plain-Python closed loop (the SSP is all
+that differs); and every kind of mistake is an exit 2 naming what is wrong."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pendfmu.cli import main
+from pendfmu.ssp import read_ssp
+
+from test_controller_loop import CART_VALUES, CONTROLLER, TOLERANCE, python_closed_loop, reference_signal
+
+
+def write_loop(tmp_path, extra=()):
+    params = tmp_path / "loop.json"
+    values = {f"Controller.{k}": (int(v) if isinstance(v, bool) else v) for k, v in CONTROLLER.items()}
+    values.update({f"Cart.{k}": v for k, v in CART_VALUES.items()})
+    params.write_text(json.dumps({"parameters": values}))
+    out = tmp_path / "loop.ssp"
+    code = main(["system", "--out", str(out), "--component", "Controller", "Cart", "--connect",
+                 "Controller.u=Cart.I", "Cart.x=Controller.y", "--params", str(params), *extra])
+    return code, out
+
+
+def test_the_composed_loop_runs_as_the_independent_one(tmp_path):
+    from pendfmu.fitting.models import load_model, simulate_model
+    from pendfmu.recording import Recording
+
+    code, ssp = write_loop(tmp_path)
+    assert code == 0
+    system = read_ssp(ssp)
+    assert sorted(str(c) for c in system.connections) == ["Cart.x -> Controller.y", "Controller.u -> Cart.I"]
+    assert system.parameters["Controller"]["n_d"].value == 2 and system.parameters["Controller"]["n_d"].type == "Integer"
+    t, r = reference_signal()
+    model = load_model(ssp)
+    recording = Recording(tmp_path / "reference.csv", t, {"qg": r}, vocabulary=model.vocabulary(["qg"]))
+    out = simulate_model(model, recording, {}, drive={"Controller.r": "qg"})
+    x, u = python_closed_loop(t, r)
+    np.testing.assert_allclose(out["x"], x, rtol=0, atol=TOLERANCE)
+    np.testing.assert_allclose(out["u"], u, rtol=0, atol=1e-9)
+
+
+def test_set_comes_after_params(tmp_path):
+    code, ssp = write_loop(tmp_path, ["--set", "Cart.eta=0.45", "m_c=2.5"])
+    assert code == 0
+    cart = read_ssp(ssp).parameters["Cart"]
+    assert cart["eta"].value == 0.45 and cart["m_c"].value == 2.5
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--component", "Controller", "Nope"], "'Nope' is neither an FMU file"),
+    (["--component", "Controller", "Cart", "--connect", "Controller.u-Cart.I"], "write it Start.output=End.input"),
+    (["--component", "Controller", "Cart", "--connect", "Controller.q=Cart.I"], "Controller has no output 'q'"),
+    (["--component", "Controller", "Cart", "--connect", "Cart.I=Controller.y"], "Cart has no output 'I'"),
+    (["--component", "Controller", "Cart", "--set", "l=0.3"], None),
+    (["--component", "Controller", "Cart", "--set", "K_q=1"], "K_q: no component has it"),
+    (["--component", "Controller", "Cart", "--set", "Cart.n_d=1"], "Cart has no parameter 'n_d'"),
+    (["--component", "Controller", "Cart", "--set", "Controller.n_d=1.5"], "an Integer"),
+    (["--component", "Controller", "Cart", "--set", "Controller.K_p"], "NAME=NUMBER"),
+])
+def test_mistakes_are_named(tmp_path, capsys, arguments, message):
+    code = main(["system", "--out", str(tmp_path / "s.ssp"), *arguments])
+    if message is None:
+        assert code == 0
+        return
+    assert code == 2
+    assert message in capsys.readouterr().err
