@@ -255,3 +255,29 @@ def test_a_fit_with_missing_samples_runs_through_warnings_and_bootstrap():
         low, high = result.estimates[name].ci95
         assert low <= CART[name] <= high, (name, low, high)
     assert not any("NaN" in w for w in result.warnings)
+
+
+def test_a_run_the_replay_cannot_follow_gets_a_hint_to_segment_it():
+    """A pendulum held near upright by a controller the recording does not contain (phi
+    wobbles 0.01 rad around 0.2 rad for 2 s): replayed open loop with the rig's small
+    friction it falls, its error growing from nothing; the warning names segments and the
+    controller as the way out. A cart pushed by a force the model lacks drifts too. A fit
+    that follows its recording (the free decay) says nothing of the kind."""
+    t = np.arange(0, 2.0, 1e-3)
+    step = 2 * math.pi / 4096
+    held = np.round((0.2 + 0.01 * np.sin(2 * np.pi * 1.5 * t)) / step) * step
+    rec = Recording(None, t, {"phi": held}, signal_info={"phi": SignalInfo(step)})
+    fallen = pendfmu.fit("pendulum", [rec], fix=["k_fwp", "T_Kp", "T_Sp"], uncertainty="jacobian",
+                         global_search=OPTIONS)
+    assert any("drifts away from the recording" in w and "--segment" in w and "fit --system" in w
+               for w in fallen.warnings), fallen.warnings
+    current = smooth_current(t) + 1.0
+    pushed = np.round(cart_run(t, current, {"F_Oc": 3.0}) / STEP_X) * STEP_X
+    cart = recording(t, {"I": current, "x": pushed}, parameters={"m_p": 0.0})
+    drifted = pendfmu.fit("cart", [cart], params=CART, fix=["eta", "F_Sc"], drive="I", uncertainty="jacobian",
+                          global_search=OPTIONS)
+    assert any("drifts away" in w for w in drifted.warnings), drifted.warnings
+    decay = Recording(None, t, {"phi": np.round(pendulum_decay(t) / step) * step},
+                      signal_info={"phi": SignalInfo(step)})
+    followed = pendfmu.fit("pendulum", [decay], uncertainty="jacobian", global_search=OPTIONS)
+    assert not any("drifts away" in w for w in followed.warnings)

@@ -235,6 +235,8 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
         except FMUError as error:
             fits = []
             notes.append(f"the simulation at the result fails ({error}): no fit statistics")
+        if spread > MODEL_ERROR_LIMIT:
+            warnings += drift_warnings(fits)
     finally:
         bar.close()
         residuals.close()
@@ -250,6 +252,38 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
                      nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial_states, notes,
                      warnings=warnings, uncertainty=assessed.summary, replicates=assessed.replicates,
                      model=None if preset or isinstance(model, Model) else str(model))
+
+
+DRIFT_RATIO = 10.0
+DRIFT_START = 0.05
+"""A recording's error after its first DRIFT_START (a twentieth) DRIFT_RATIO times the error
+within it: the simulation runs away from the recording (drift_warnings)."""
+
+
+def drift_warnings(fits: Sequence[ExperimentFit]) -> list[str]:
+    """A hint where a fit is poor because the simulation drifts: an open-loop replay of a
+    closed-loop or unstable run (a balanced pendulum, a stage under position control) leaves
+    the recording further and further behind from a start where it agreed, and no parameter
+    value can fix that. Said when the RMS error of a recorded signal after its first
+    twentieth is DRIFT_RATIO times the error within it (the start is where the replay and
+    the recording agree best: both begin from the same state)."""
+    found = []
+    for fit in fits:
+        for column, recorded in fit.recorded.items():
+            error = fit.simulated[column] - recorded
+            error = error[np.isfinite(error)]
+            start = max(10, int(DRIFT_START * len(error)))
+            if len(error) < 2 * start:
+                continue
+            early, late = (float(np.sqrt(np.mean(part**2))) for part in (error[:start], error[start:]))
+            if late > DRIFT_RATIO * early:
+                growth = f"{late / early:.3g}-fold" if early > 0 else "from nothing"
+                found.append(f"{fit.name}: the simulated {column} drifts away from the recording (its error grows "
+                             f"{growth} after the first twentieth of the run): an open-loop replay of a closed-loop "
+                             f"or unstable run cannot follow it; fit it in segments with their own initial states "
+                             f"(--segment SECONDS, or --window), or with its controller in the loop (pendfmu "
+                             f"system, fit --system)")
+    return found
 
 
 def _experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]:
