@@ -235,3 +235,62 @@ def test_carriage_stribeck_curve_against_the_published_and_the_data(carriage_res
     assert data["published_minus_load_cell"]["rms"] < 6.0
     gap = math.sqrt(np.mean((implied["drive"] - implied["load_cell"]) ** 2))
     assert abs(comparison["fitted_minus_published"]["rms"] - gap) < 3.0
+
+
+# ---------------------------------------------------------------- rotary-inverted-pendulum
+
+FURUTA = "rotary-inverted-pendulum"
+
+
+@pytest.fixture(scope="module")
+def furuta_result(tmp_path_factory):
+    convert = rd.load_example(FURUTA)
+    if not rd.available(*convert.SOURCES):
+        pytest.skip(f"real data absent: {', '.join(map(str, convert.SOURCES))}")
+    outdir = tmp_path_factory.mktemp(FURUTA)
+    done = run(FURUTA, outdir)
+    assert done.returncode == 0, done.stderr
+    return convert, json.loads((outdir / "result.json").read_text())
+
+
+def test_furuta_sensor_is_fitted_not_corrected_by_hand(furuta_result):
+    """Issue 14: the conversion is the firmware's degrees in pendfmu's convention only
+    (phi = pi + radians(printed)); the fit frees phi_offset and phi_scale, and no friction
+    value or box is given (the data-derived box holds the friction). The scale comes out in
+    the firmware's direction, > 1 (readings per true unit: 11.11/11 = 1.0101; measured
+    1.0159), and the reading at hanging, phi_offset + pi (phi_scale - 1), is the encoder's
+    zero (measured 0.22 deg). Nothing at a search bound."""
+    convert, document = furuta_result
+    assert not any(option.startswith(("k_fwp=", "T_Kp=", "T_Sp=")) for option in convert.OPTIONS)
+    raw = convert.read_furuta_degrees()
+    recording = convert.furuta_recording()
+    start = int(round(recording.time[0] / convert.FURUTA_PERIOD))
+    assert np.allclose(recording.signal("phi"), math.pi + np.radians(raw[start:start + len(recording.time)]))
+    p = document["parameters"]
+    assert set(document["interval_method"]) >= {"phi_offset", "phi_scale", "k_fwp", "T_Kp", "J_p"}
+    assert 1.0 < p["phi_scale"] < 1.03 and convert.FIRMWARE_SCALE == pytest.approx(400 / 396)
+    zero = p["phi_offset"] + math.pi * (p["phi_scale"] - 1)
+    assert abs(math.degrees(zero)) < 1.0
+    assert not [flag for flags in document["flags"].values() for flag in flags if flag.startswith("at ")]
+
+
+def test_furuta_damping_against_the_published_figure(furuta_result):
+    """The published 4.638e-4 is the authors' compute.py ratio with omega in deg/s: their
+    procedure on this run's file gives 4.35e-4 (one of the three runs averaged), which
+    confirms the reading; as a damping ratio it is 4.638e-4 * 180/pi = 0.0266. pendfmu's
+    fitted model put through the same procedure: 4.08e-4 measured, held within 15 % of the
+    run's own figure; the result file's comparison is what convert.published_comparison
+    computes from its parameters."""
+    convert, document = furuta_result
+    comparison = document["published_comparison"]
+    assert comparison["authors_method_this_run"]["sample_maxima"] == pytest.approx(4.35e-4, rel=0.01)
+    assert comparison["published"]["damping_ratio"] == pytest.approx(4.638e-4 * 180 / math.pi)
+    model = comparison["fitted_model"]
+    low, high = model["ci95"]
+    assert low < model["value"] < high
+    assert abs(model["value"] / comparison["authors_method_this_run"]["refined_maxima"] - 1) < 0.15
+    viscous = comparison["viscous_only"]["damping_ratio"]["value"]
+    p = document["parameters"]
+    assert viscous == pytest.approx(p["k_fwp"] / (2 * math.sqrt(p["J_p"] * p["m_p"] * p.get("g", 9.81) * p["l"])))
+    again = convert.published_comparison(document)
+    assert again["fitted_model"]["value"] == pytest.approx(model["value"], rel=1e-9)

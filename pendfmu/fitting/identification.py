@@ -112,7 +112,10 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
     recordings : sequence of paths or Recording
         Recorded time responses (CSV + sidecar, or .mat), fitted jointly.
     params : mapping, optional
-        Known values and the start of the fitted ones (names of the model).
+        Known values and the start of the fitted ones (names of the model). A stage's
+        friction parameter given neither here nor in a recording's sidecar is searched in
+        a box derived from the rig's known sizes and the recordings (stages.DERIVED_BOUNDS),
+        not around the reference rig's value.
     free, fix : sequences of names
         Parameters to fit besides a stage's own (a user's model: all of them), and ones to
         keep at their given values.
@@ -183,7 +186,11 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
     if strict and data_warnings:
         raise SuspiciousData(data_warnings)
     if preset:
-        free_parameters = stage_free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values)
+        # the values the user gave (the rest are the reference rig's): a friction parameter
+        # without one is searched in a box derived from the rig's sizes (stages.derived_box)
+        given = {*check_parameters(params or {}), *(n for e in experiments for n in e.recording.parameters)}
+        free_parameters = stage_free_parameters(stage, experiments, free, list(fix), dict(bounds or {}), values,
+                                                given)
         # warnings about the fit's set-up (README, Drives): printed as the data's are
         setup_warnings = self_locking_switch(free_parameters, experiments) + viscous_twins(free_parameters, experiments)
         for warning in setup_warnings:

@@ -98,6 +98,10 @@ class FitResult:
             "stderr": {k: e.stderr for k, e in shared.items()},
             "ci95": {k: _json_interval(e.ci95) for k, e in shared.items()},
             "interval_method": {k: e.method for k, e in shared.items()},
+            # the estimates' correlations (None where a standard error is 0 or undefined):
+            # what a derived quantity's interval needs besides stderr
+            "correlation": {k: {q: c for q, c in row.items() if q in shared}
+                            for k, row in self.correlation.items() if k in shared},
             "flags": {k: e.flags for k, e in self.estimates.items() if e.flags},
             "initial": self.initial,
             "fit": {"stage": self.stage, "cost": self.cost, "nrmse": self.nrmse, "nfev": self.nfev,
@@ -286,10 +290,13 @@ def _bound_flag(p: FreeParameter, lower: bool) -> str:
         ratio = p.low if lower else p.high
         if lower:
             return f"at its lower bound: equal to {p.relative_to} (no stiction beyond Coulomb friction)"
-        return f"at {ratio:g} times {p.relative_to}, the upper bound of the search: widen it with --bounds"
+        return (f"at {ratio:g} times {p.relative_to}, the upper bound of the search: widen it with "
+                f"--bounds {p.name}=LOW:HIGH (absolute values)")
     bound = p.low if lower else p.high
+    # the name as --bounds takes it: a recording's own parameter (phi0[run1]) by its plain
+    # name, which sets the box of every recording's
     return (f"at its {'lower' if lower else 'upper'} bound {bound:g}: the optimum may lie beyond; "
-            f"widen the bounds (--bounds) or check the model")
+            f"widen the bounds (--bounds {p.name}=LOW:HIGH) or check the model")
 
 
 def nrmse(experiments: list[ExperimentFit]) -> dict[str, float]:

@@ -19,7 +19,7 @@ paper uses. Nothing in the simulator knows the stages' names.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -196,6 +196,85 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
 
 
 SEARCH_DECADE = 10.0  # default search box: the given value divided and multiplied by this
+
+# A friction parameter the user gave no value for: its box from the rig's own scales, not
+# from the reference rig's value (a 20 g pendulum's pivot friction is a hundredth of the
+# paper's 0.2 kg rod's). name -> (scale, low, high): the box is [low, high] times the scale.
+#
+# Pendulum: the torque scale m_p g l (gravity's largest torque) and the viscous scale
+# m_p g l / omega_0 (omega_0 = sqrt(m_p g l / J_p)), for which k_fwp / scale is twice the
+# damping ratio. Coulomb friction or stiction above 0.3 m_p g l holds the pendulum 17 deg
+# from hanging (asin 0.3) and a free decay barely swings; below 1e-4 it takes 2e-4 rad
+# (0.01 deg) off each half swing, below a lab encoder's step over a whole record. A damping
+# ratio from 5e-5 (a swing losing 0.03 % per period) to 0.5 (dead after one period).
+# The reference rig: T_Kp = 3.4e-3, k_fwp = 8.4e-3 times their scales; the Furuta pendulum
+# of examples/realdata: 1.5e-2 and 2.2e-2.
+#
+# Cart: the force scale is the drive's largest force over the recordings, k_M k_D max|I|
+# (the cart stage's drives are the current I or its command I_c; (m_c + m_p) g without
+# one), and the viscous scale that force over the largest speed the recordings show
+# (from x). The cart moved, so its sliding friction is below eta times the drive's force,
+# <= 1 times the scale; a cart accelerated from rest by at most that force never exceeds
+# its terminal speed F / k_fwc, so k_fwc <= F / v_max (2: room for the speed's estimate).
+# Three decades below: friction a thousandth of the drive is not what a lab rig shows.
+# The reference rig's runs (3 A, 1.2 m/s): F_Kc = 0.07, k_fwc = 0.32 of their scales.
+DERIVED_BOUNDS: dict[str, tuple[str, float, float]] = {
+    "T_Kp": ("torque", 1e-4, 0.3), "T_Sp": ("torque", 1e-4, 0.3), "k_fwp": ("rotation", 1e-4, 1.0),
+    "F_Kc": ("force", 1e-3, 1.0), "F_Sc": ("force", 1e-3, 1.0), "k_fwc": ("translation", 1e-3, 2.0),
+}
+SPEED_WINDOW = 0.01  # the largest speed: position differences over 1 % of a recording (>= 10 samples)
+
+
+def rig_scales(values: Mapping[str, float], experiments: Sequence[Experiment]) -> dict[str, float]:
+    """The scales of DERIVED_BOUNDS from the known values (`values`: given, else the
+    reference rig's) and the recordings: torque [N m], rotation [N m s], force [N],
+    translation [N s/m]."""
+    g = values.get("g", 9.81)
+    torque = values["m_p"] * g * values["l"]
+    inertia = values.get("J_p", 0.0) or 4.0 / 3.0 * values["m_p"] * values["l"] ** 2  # 0: a uniform rod
+    scales = {"torque": torque, "rotation": torque / math.sqrt(torque / inertia) if torque > 0 else 0.0}
+    current = 0.0
+    speed = 0.0
+    for experiment in experiments:
+        for column, _ in experiment.setup.drives.values():
+            if column in ("I", "I_c"):
+                drive = experiment.recorded(column)
+                current = max(current, float(np.max(np.abs(drive[np.isfinite(drive)]), initial=0.0)))
+        if "x" in experiment.recording.signals:
+            speed = max(speed, largest_speed(experiment.time, experiment.recorded("x")))
+    force = values.get("k_M", 0.0) * values.get("k_D", 0.0) * current
+    if not force > 0:
+        force = (values.get("m_c", 0.0) + values.get("m_p", 0.0)) * g
+    scales["force"] = force
+    scales["translation"] = force / speed if speed > 0 else force  # no motion seen: per m/s
+    return scales
+
+
+def largest_speed(time: np.ndarray, position: np.ndarray) -> float:
+    """The largest |speed| of a position record: differences over SPEED_WINDOW of its
+    samples (at least 10), so that a sensor step between two samples is not a speed."""
+    present = np.isfinite(position)
+    t, x = time[present], position[present]
+    n = max(10, int(SPEED_WINDOW * len(t)))
+    if len(t) <= n:
+        return 0.0
+    return float(np.max(np.abs((x[n:] - x[:-n]) / (t[n:] - t[:-n]))))
+
+
+def derived_box(name: str, values: Mapping[str, float], experiments: Sequence[Experiment]
+                ) -> tuple[float, float] | None:
+    """The box of a friction parameter without a given value (DERIVED_BOUNDS), or None
+    for any other parameter or when the rig's scales are unknown."""
+    if name not in DERIVED_BOUNDS:
+        return None
+    kind, low, high = DERIVED_BOUNDS[name]
+    try:
+        scale = rig_scales(values, experiments)[kind]
+    except KeyError:
+        return None
+    if not (math.isfinite(scale) and scale > 0):
+        return None
+    return low * scale, high * scale
 STICTION_OF = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> the Coulomb friction it is fitted relative to
 STICTION_RATIO = (1.0, 10.0)
 # With a Stribeck speed (free, or given > 0) the stiction is the sliding friction's level at
@@ -214,11 +293,17 @@ def _stribeck(stiction: str, names: Sequence[str], fix: Sequence[str], values: M
 
 def stage_free_parameters(stage: str, experiments: list[Experiment], free: Sequence[str] | None,
                           fix: Sequence[str], bounds: Mapping[str, tuple[float, float]],
-                          values: Mapping[str, float]) -> list[FreeParameter]:
+                          values: Mapping[str, float], given: Collection[str] | None = None
+                          ) -> list[FreeParameter]:
     """The stage's free parameters (its own, `free`, the recordings' own estimates) with
     their search boxes: --bounds, else DEFAULT_BOUNDS narrowed to a decade either side
     of a given value, stiction relative to Coulomb friction, a measurement parameter's
-    box from the data (measurement.default_box), an initial state's from its recording."""
+    box from the data (measurement.default_box), an initial state's from its recording.
+
+    `given`: the names whose value the user gave (params, a sidecar). A friction
+    parameter not among them has no value of its own (`values` then holds the reference
+    rig's), and its box is derived from the rig's known sizes and the recordings
+    (derived_box). None (the default, as before): every value in `values` counts as given."""
     spec = STAGES[stage]
     component = COMPONENTS[spec.component]
     signals = {column for e in experiments for column in (*e.match.values(), *(c for c, _ in e.setup.drives.values()))}
@@ -243,7 +328,7 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
     for name in names:
         if name in fix:
             continue
-        low, high, log, relative_to = _box(name, names, fix, bounds, values, experiments)
+        low, high, log, relative_to = _box(name, names, fix, bounds, values, experiments, given)
         result.append(FreeParameter(name, float(low), float(high), log, relative_to=relative_to))
     shared = {p.name: p for p in result}
     for experiment in experiments:
@@ -254,7 +339,8 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
                 low, high = bounds[name]
                 log = False
             elif low is None:
-                low, high, log, _ = _box(name, [], fix, {}, {**values, **experiment.fixed}, [experiment])
+                own_given = None if given is None else {*given, *experiment.recording.parameters}
+                low, high, log, _ = _box(name, [], fix, {}, {**values, **experiment.fixed}, [experiment], own_given)
             else:  # an initial state's box from its recording, through the free sensor parameters
                 low, high = through_sensor(experiment, name, low, high, shared)
                 log = False
@@ -263,7 +349,8 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
 
 
 def _box(name: str, names: Sequence[str], fix: Sequence[str], bounds: Mapping[str, tuple[float, float]],
-         values: Mapping[str, float], experiments: Sequence[Experiment]) -> tuple[float, float, bool, str | None]:
+         values: Mapping[str, float], experiments: Sequence[Experiment], given: Collection[str] | None = None
+         ) -> tuple[float, float, bool, str | None]:
     """(low, high, logarithmic, relative_to) of one parameter (stage_free_parameters)."""
     if measurement_signal(name) is not None and name not in DEFAULT_BOUNDS:
         if name in bounds:
@@ -274,7 +361,10 @@ def _box(name: str, names: Sequence[str], fix: Sequence[str], bounds: Mapping[st
         return (*default_box(name, recorded, first.time), None)
     low, high, log = DEFAULT_BOUNDS.get(name, (None, None, False))
     prior = values.get(name)
-    if log and prior and prior > 0 and name not in bounds:
+    derived = derived_box(name, values, experiments) if given is not None and name not in given else None
+    if derived is not None and name not in bounds:
+        low, high = derived
+    elif log and prior and prior > 0 and name not in bounds:
         # Search a decade either side of the given value: a lab engineer's prior is
         # rarely off by more, and a box of five decades leaves the global search lost.
         low, high = max(low, prior / SEARCH_DECADE), min(high, prior * SEARCH_DECADE)
@@ -287,6 +377,8 @@ def _box(name: str, names: Sequence[str], fix: Sequence[str], bounds: Mapping[st
         relative_to, (low, high), log = STICTION_OF[name], ratio, True
     elif name in STICTION_OF and not _stribeck(name, names, fix, values):
         low = max(low, values.get(STICTION_OF[name], 0.0))  # below Coulomb friction it has no effect
+        if derived is not None and not high > low:  # a given Coulomb friction above the derived box
+            high = low * SEARCH_DECADE
     if low is None or not high > low:
         raise ParameterFileError(f"parameter {name}: give bounds as --bounds {name}=LOW:HIGH (LOW < HIGH)")
     return low, high, log, relative_to
