@@ -227,22 +227,27 @@ SPEED_WINDOW = 0.01  # the largest speed: position differences over 1 % of a rec
 
 def rig_scales(values: Mapping[str, float], experiments: Sequence[Experiment]) -> dict[str, float]:
     """The scales of DERIVED_BOUNDS from the known values (`values`: given, else the
-    reference rig's) and the recordings: torque [N m], rotation [N m s], force [N],
-    translation [N s/m]."""
+    reference rig's) and the recordings: torque [N m], rotation [N m s], force [N] (the
+    drive's largest: k_M k_D |I| or k_u |u|, else the weight), translation [N s/m]."""
     g = values.get("g", 9.81)
     torque = values["m_p"] * g * values["l"]
     inertia = values.get("J_p", 0.0) or 4.0 / 3.0 * values["m_p"] * values["l"] ** 2  # 0: a uniform rod
     scales = {"torque": torque, "rotation": torque / math.sqrt(torque / inertia) if torque > 0 else 0.0}
-    current = 0.0
+    current = command = 0.0
     speed = 0.0
     for experiment in experiments:
         for column, _ in experiment.setup.drives.values():
-            if column in ("I", "I_c"):
+            if column in ("I", "I_c", "u"):
                 drive = experiment.recorded(column)
-                current = max(current, float(np.max(np.abs(drive[np.isfinite(drive)]), initial=0.0)))
+                largest = float(np.max(np.abs(drive[np.isfinite(drive)]), initial=0.0))
+                if column == "u":
+                    command = max(command, largest)
+                else:
+                    current = max(current, largest)
         if "x" in experiment.recording.signals:
             speed = max(speed, largest_speed(experiment.time, experiment.recorded("x")))
-    force = values.get("k_M", 0.0) * values.get("k_D", 0.0) * current
+    # the drive's largest force: the current's through the motor, or the command's (README, Drives)
+    force = max(values.get("k_M", 0.0) * values.get("k_D", 0.0) * current, abs(values.get("k_u", 0.0)) * command)
     if not force > 0:
         force = (values.get("m_c", 0.0) + values.get("m_p", 0.0)) * g
     scales["force"] = force
