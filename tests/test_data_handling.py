@@ -173,8 +173,8 @@ def test_a_fit_with_missing_samples_writes_its_result(tmp_path):
     gaps = x.copy()
     gaps[100:140] = np.nan
     rec = recording(t, {"I": current, "x": gaps}, {"x": SignalInfo(STEP_X, missing="nan")}, parameters={"m_p": 0.0})
-    result = pendfmu.fit("cart", [rec], params=CART, drive="I", free=["k_fwc"], global_search=False,
-                         uncertainty="jacobian")
+    result = pendfmu.fit("cart", [rec], params=CART, drive="I", free=["k_fwc"],
+                         global_search=pendfmu.GlobalOptions(enabled=False), uncertainty="jacobian")
     assert math.isfinite(result.nrmse["x"]) and result.nrmse["x"] < 1e-3
     result.write_json(tmp_path / "r.json")
     assert json.loads((tmp_path / "r.json").read_text())["fit"]["nrmse"]["x"] == result.nrmse["x"]
