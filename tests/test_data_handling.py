@@ -164,6 +164,22 @@ def test_a_missing_sample_has_no_residual_and_the_others_are_unchanged():
     assert np.array_equal(masked, np.delete(full, np.s_[100:140]))
 
 
+def test_a_fit_with_missing_samples_writes_its_result(tmp_path):
+    """The result's nrmse skips the missing readings as the residuals do (it was NaN, and
+    the result file, strict JSON, could not be written)."""
+    t = np.arange(0, 0.3, 1e-3)
+    current = smooth_current(t)
+    x = np.round(cart_run(t, current, {}) / STEP_X) * STEP_X
+    gaps = x.copy()
+    gaps[100:140] = np.nan
+    rec = recording(t, {"I": current, "x": gaps}, {"x": SignalInfo(STEP_X, missing="nan")}, parameters={"m_p": 0.0})
+    result = pendfmu.fit("cart", [rec], params=CART, drive="I", free=["k_fwc"],
+                         global_search=pendfmu.GlobalOptions(enabled=False), uncertainty="jacobian")
+    assert math.isfinite(result.nrmse["x"]) and result.nrmse["x"] < 1e-3
+    result.write_json(tmp_path / "r.json")
+    assert json.loads((tmp_path / "r.json").read_text())["fit"]["nrmse"]["x"] == result.nrmse["x"]
+
+
 def test_a_drive_with_missing_samples_is_refused_before_the_fit():
     t = np.arange(0, 0.01, 1e-3)
     current = np.ones_like(t)

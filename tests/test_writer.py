@@ -181,3 +181,19 @@ def test_an_existing_file_is_replaced_whole(tmp_path):
     path.write_text("old content that is longer than the new one\n" * 100)
     write_signals(path, [0.0], {"x": [1.0]})
     assert path.read_text() == "time,x\n0.0,1.0\n"
+
+
+@pytest.mark.parametrize("marker", ["nan", -9999.0])
+def test_missing_samples_survive_the_round_trip(tmp_path, marker):
+    """A recording with missing readings (NaN, or a marker that became NaN) writes a sidecar
+    that says so: read back, the same samples are missing, not an error on the NaN."""
+    from pendfmu.recording import Recording, SignalInfo
+    from pendfmu.recording.writer import write_recording
+
+    phi = np.array([3.0, 2.9, marker if marker != "nan" else np.nan, 2.7])
+    recording = Recording(tmp_path / "made", np.arange(4) * 0.1, {"a": np.zeros(4), "phi": phi},
+                          signal_info={"phi": SignalInfo(1e-3, missing=marker)})
+    back = read_recording(write_recording(recording, tmp_path / "rec.csv"))
+    assert np.array_equal(np.isnan(back.signal("phi")), [False, False, True, False])
+    assert np.array_equal(back.signal("phi")[[0, 1, 3]], [3.0, 2.9, 2.7])
+    assert back.signal_info["phi"].missing == "nan"

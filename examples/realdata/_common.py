@@ -105,11 +105,13 @@ def write_inputs(recordings, params: dict[str, float], folder: Path) -> list[str
     return [*files, str(folder / "params.json")]
 
 
-def fit_arguments(stage: str, recordings, params: dict[str, float], options, folder: Path) -> list[str]:
+def fit_arguments(stage, recordings, params: dict[str, float], options, folder: Path) -> list[str]:
     """``fit STAGE RECORDING... --params P OPTIONS``, the recordings and parameters
-    written into `folder` (the command up to --out and --seed)."""
+    written into `folder` (the command up to --out and --seed). `stage` is a stage's name,
+    or the arguments that stand in its place for a model fit (``("--fmu", "Cart.fmu")``)."""
     *files, params_file = write_inputs(recordings, params, folder)
-    return ["fit", stage, *files, "--params", params_file, *options]
+    head = [stage] if isinstance(stage, str) else [str(a) for a in stage]
+    return ["fit", *head, *files, "--params", params_file, *options]
 
 
 def missing_source(convert) -> Path | None:

@@ -309,6 +309,9 @@ def nrmse(experiments: list[ExperimentFit]) -> dict[str, float]:
     for name, pairs in pooled.items():
         recorded = np.concatenate([r for r, _ in pairs])
         simulated = np.concatenate([s for _, s in pairs])
-        spread = float(np.ptp(recorded)) or 1.0
+        present = np.isfinite(recorded)  # a missing reading (sidecar "missing") has no error
+        recorded, simulated = recorded[present], simulated[present]
+        spread = float(np.ptp(recorded)) if len(recorded) else 0.0
+        spread = spread or 1.0
         result[name] = float(np.sqrt(np.mean((simulated - recorded) ** 2)) / spread)
     return result

@@ -106,6 +106,9 @@ def _sidecar_document(recording: Recording) -> dict:
         entry["quantizer"] = info.quantizer
         if info.noise is not None:
             entry["noise"] = info.noise
+        if info.missing is not None:
+            # a marker value became NaN when the recording was made, and NaN is what the CSV holds
+            entry["missing"] = "nan"
         signals[name] = entry
     return {"experiment": recording.experiment, "signals": signals,
             "parameters": dict(recording.parameters), "initial": dict(recording.initial)}
