@@ -292,8 +292,10 @@ class Instance:
 
     def _integrate(self, t_end: float) -> None:
         t = self.time
-        while t < t_end - 1e-12 * max(1.0, abs(t_end)):
-            t_next = min(t_end, self.next_event)
+        eps = 1e-12 * max(1.0, abs(t_end))
+        while t < t_end - eps:
+            # a time event within rounding of the communication point happens at it
+            t_next = self.next_event if self.next_event <= t_end + eps else t_end
             x = self._states()
             self._set(t, x)
             z0 = self._indicators() > 0
@@ -317,7 +319,7 @@ class Instance:
             step_event, terminate = self.fmu.completedIntegratorStep()
             if terminate:
                 raise FMICallException(function="fmi2CompletedIntegratorStep", status=3)
-            if crossed or step_event or t_next >= self.next_event:
+            if crossed or step_event or t_next >= self.next_event - eps:
                 self.fmu.enterEventMode()
                 self._event_iteration()
                 self.fmu.enterContinuousTimeMode()
