@@ -13,23 +13,28 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 from pendfmu.check.fmu import CheckResult, Target
 
 CASES = ("step before initialization", "unknown value reference", "NaN input", "Inf input",
          "fixed parameter set while stepping")
 ERROR = 2  # fmi2Discard or worse answers a misuse
+CHILD = [sys.executable, "-m", "pendfmu.check.sequence"]
+"""The child's command line, before its arguments (FMU KIND STEP CASE...)."""
 
 
 def run(target: Target, kind: str) -> list[CheckResult]:
     reports: dict[str, dict] = {}
     remaining = list(CASES)
     while remaining:
-        command = [sys.executable, "-m", "pendfmu.check.sequence", str(target.path.resolve()), kind,
-                   str(target.step), *remaining]
-        done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+        command = [*CHILD, str(target.path.resolve()), kind, str(target.step), *remaining]
+        package = str(Path(__file__).resolve().parents[2])  # this pendfmu, whatever the child's path
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [package, os.environ.get("PYTHONPATH")])))
+        done = subprocess.run(command, capture_output=True, text=True, timeout=120, env=env)
         for line in done.stdout.splitlines():
             if line.startswith("{"):
                 report = json.loads(line)
@@ -51,7 +56,7 @@ def run(target: Target, kind: str) -> list[CheckResult]:
             results.append(CheckResult(name, False, "no answer", "the child process reported nothing"))
         elif "crashed" in report:
             results.append(CheckResult(name, False, "crashed", f"the FMU crashed the process ({report['crashed']}) "
-                                       f"on a {case}: {report['stderr'][0]}"))
+                                       f"on the misuse '{case}': {report['stderr'][0]}"))
         else:
             results.append(_judge(name, case, report))
     return results
