@@ -121,3 +121,16 @@ def test_a_crash_on_misuse_is_a_failed_row_and_the_other_misuses_still_run(broke
     assert not crashed.passed and crashed.figure == "crashed"
     assert "the FMU crashed the process (signal 11) on the misuse 'unknown value reference'" in crashed.message
     assert len(rows) == 4 and all(r.passed for r in rows.values())
+
+
+def test_input_recording_drives_the_runs_and_a_wrong_column_is_bad_input(broken, tmp_path, capsys):
+    recording = tmp_path / "u.csv"
+    recording.write_text("time,u\n0,0\n0.5,4\n1.0,-4\n1.5,1\n")
+    results = run_battery(broken["state"], only=("determinism", "rollback"), recording=recording)
+    rows = {r.name: r for r in results}
+    assert rows["determinism: fresh instances CS"].figure.startswith("identical (376 points")  # 1.5 s at 4 ms
+    assert not rows["rollback: FMU state CS"].passed
+    wrong = tmp_path / "wrong.csv"
+    wrong.write_text("time,I\n0,1\n")
+    assert main(["check", str(broken["ok"]), "--input", str(wrong)]) == 2
+    assert "wrong.csv: column 'I' is not an input of the FMU (inputs: u)" in capsys.readouterr().err

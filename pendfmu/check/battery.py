@@ -16,10 +16,11 @@ DYNAMIC = (sequence, determinism, rollback, convergence, inputs)
 
 
 def run_battery(path: str | Path, stop: float | None = None, step: float | None = None,
-                only: tuple[str, ...] | None = None) -> list[CheckResult]:
+                only: tuple[str, ...] | None = None, recording: str | Path | None = None) -> list[CheckResult]:
     """Every check on the FMU at `path`; `only` picks checks by module name ("static",
-    "sequence", "determinism", "rollback", "convergence", "inputs")."""
-    target = Target(path, stop, step)
+    "sequence", "determinism", "rollback", "convergence", "inputs"); `recording` a CSV of
+    inputs (time first) that drives the runs instead of the default sine."""
+    target = Target(path, stop, step, recording)
     results: list[CheckResult] = []
     if only is None or "static" in only:
         results += _guarded("static", lambda: static.run(target))

@@ -45,10 +45,10 @@ def run(target: Target, kind: str) -> list[CheckResult]:
     order = math.log2(d1[j] / d2[j]) if d1[j] > 0 and d2[j] > 0 else math.nan
     worst = target.outputs[j].name
     figure = f"{worst}: d1 {d1[j]:.3g}, d2 {d2[j]:.3g}"
-    if relative[j] <= RELATIVE:
-        figure += " (rounding level: independent of the step)"
-    elif math.isfinite(order):
+    if math.isfinite(order) and min(d1[j], d2[j]) > 1e-12 * scale[j]:  # above rounding: an order
         figure += f", order {order:.2f}"
+    if relative[j] <= RELATIVE:
+        figure += " (within 1e-6 of its range)" if relative[j] > 1e-12 else " (rounding: step-independent)"
     moving = [k for k in range(len(d1)) if d2[k] > RELATIVE * scale[k] and d2[k] >= 0.8 * d1[k]]
     if moving:
         k = moving[0]

@@ -54,7 +54,8 @@ class Span:
 class Target:
     """An FMU file: its description, unzipped binary, interfaces, inputs, outputs, parameters."""
 
-    def __init__(self, path: str | Path, stop: float | None = None, step: float | None = None):
+    def __init__(self, path: str | Path, stop: float | None = None, step: float | None = None,
+                 recording: str | Path | None = None):
         from pendfmu.simulator.component import unpacked_fmu
 
         self.path = Path(path)
@@ -82,6 +83,9 @@ class Target:
         experiment = self.md.defaultExperiment
         declared_stop = float(experiment.stopTime) if experiment is not None and experiment.stopTime else None
         declared_step = float(experiment.stepSize) if experiment is not None and experiment.stepSize else None
+        self.recording = read_inputs(recording, [v.name for v in self.inputs]) if recording else None
+        if stop is None and self.recording is not None:
+            stop = float(self.recording[0][-1]) or None
         self.stop = stop if stop is not None else (declared_stop or 1.0)
         self.step = step if step is not None else (declared_step or self.stop / 500)
         if not (self.stop > 0 and self.step > 0 and self.step < self.stop):
@@ -111,11 +115,19 @@ class Target:
         communication step hold, hold/2, ... see the same input."""
         spans = [self.span(v) for v in self.inputs]
         stop = self.stop
+        times, columns = self.recording if self.recording is not None else (None, {})
+        recorded = [columns.get(v.name) for v in self.inputs]
 
         def at(t: float) -> np.ndarray:
             t = math.floor(t / hold + 1e-9) * hold
-            return np.array([0.5 * (s.low + s.high) + 0.5 * (s.high - s.low) *
-                             math.sin(3 * math.pi * t / stop + 0.7 * k) for k, s in enumerate(spans)])
+            row = np.array([0.5 * (s.low + s.high) + 0.5 * (s.high - s.low) *
+                            math.sin(3 * math.pi * t / stop + 0.7 * k) for k, s in enumerate(spans)])
+            if times is not None:  # recorded inputs: the last sample at or before t
+                i = max(0, int(np.searchsorted(times, t + 1e-12 * max(1.0, abs(t)), side="right")) - 1)
+                for k, column in enumerate(recorded):
+                    if column is not None:
+                        row[k] = column[i]
+            return row
         return at
 
     def varied_parameter(self):
@@ -132,6 +144,33 @@ class Target:
             if low <= value <= high and value != start and v.name not in ("solver_step",):
                 return v, value
         return None
+
+
+def read_inputs(path: str | Path, inputs: list[str]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(times, {input: values}) from a CSV file whose first column is time and whose other
+    columns are named like the FMU's inputs (an input without a column keeps the default
+    stimulus). Bad input (exit 2) for a missing file, an unknown column or a bad number."""
+    import csv
+
+    path = Path(path)
+    try:
+        with open(path, newline="") as handle:
+            rows = list(csv.reader(handle))
+    except OSError as error:
+        raise BadInput(f"{path}: cannot read the input recording ({error.strerror})") from None
+    if len(rows) < 2:
+        raise BadInput(f"{path}: needs a header (time first, then input names) and at least one row")
+    header = [name.strip() for name in rows[0]]
+    unknown = [name for name in header[1:] if name not in inputs]
+    if unknown:
+        raise BadInput(f"{path}: column {unknown[0]!r} is not an input of the FMU (inputs: {', '.join(inputs)})")
+    try:
+        data = np.array([[float(x) for x in row] for row in rows[1:] if row], dtype=float)
+    except ValueError as error:
+        raise BadInput(f"{path}: {error}") from None
+    if data.shape[1] != len(header) or not np.all(np.isfinite(data)) or np.any(np.diff(data[:, 0]) < 0):
+        raise BadInput(f"{path}: every row needs {len(header)} finite numbers, time not decreasing")
+    return data[:, 0], {name: data[:, j] for j, name in enumerate(header) if j}
 
 
 class Instance:
@@ -158,6 +197,7 @@ class Instance:
         self.nx = md.numberOfContinuousStates if kind == "ME" else 0
         self.nz = md.numberOfEventIndicators if kind == "ME" else 0
         self.next_event = math.inf
+        self.signs = None  # ME: the event indicators' signs at the end of the last step
 
     def _log(self, environment, instance, status, category, message):
         self.messages.append(message.decode("utf-8", "replace") if message else "")
@@ -186,6 +226,7 @@ class Instance:
         if self.kind == "ME":
             self._event_iteration()
             self.fmu.enterContinuousTimeMode()
+            self.signs = self._indicators() > 0
 
     def reset(self) -> None:
         self.fmu.reset()
@@ -299,6 +340,12 @@ class Instance:
             x = self._states()
             self._set(t, x)
             z0 = self._indicators() > 0
+            if self.signs is not None and np.any(z0 != self.signs):
+                # an indicator changed sign with the inputs set at this communication point:
+                # the event is here, before integrating on
+                self._event_at_point()
+                x = self._states()
+                z0 = self._indicators() > 0
             dt = t_next - t
             x1 = self._rk4(t, x, dt)
             self._set(t_next, x1)
@@ -320,19 +367,23 @@ class Instance:
             if terminate:
                 raise FMICallException(function="fmi2CompletedIntegratorStep", status=3)
             if crossed or step_event or t_next >= self.next_event - eps:
-                self.fmu.enterEventMode()
-                self._event_iteration()
-                self.fmu.enterContinuousTimeMode()
+                self._event_at_point()
+            self.signs = self._indicators() > 0
             t = t_next
         self.time = t_end
+
+    def _event_at_point(self) -> None:
+        self.fmu.enterEventMode()
+        self._event_iteration()
+        self.fmu.enterContinuousTimeMode()
 
     # -- FMU state
 
     def get_state(self):
-        return (self.fmu.getFMUstate(), self.time, self.next_event)
+        return (self.fmu.getFMUstate(), self.time, self.next_event, self.signs)
 
     def set_state(self, saved) -> None:
-        state, self.time, self.next_event = saved
+        state, self.time, self.next_event, self.signs = saved
         self.fmu.setFMUstate(state)
 
     def free_state(self, saved) -> None:

@@ -60,7 +60,7 @@ def run(target: Target, kind: str) -> list[CheckResult]:
             name_s = f"rollback: serialized state {kind}"
             data = unit.fmu.serializeFMUstate(saved[k][0][0])
             copy = unit.fmu.deSerializeFMUstate(data)
-            unit.set_state((copy, k * h, saved[k][0][2]))
+            unit.set_state((copy, *saved[k][0][1:]))
             again = unit.run(h, target.stop, stimulus)
             difference = compare(again, reference[k:])
             message = "" if difference == 0.0 else (

@@ -9,7 +9,7 @@ serialization reproducing a run bit for bit, step-size convergence (h, h/2, h/4)
 observed order, and finite outputs over each input's declared range.
 
 Inputs are driven by a slow sine over each input's declared range (else around its start
-value). Exit code 0: every check passed; 1: a check failed; 2: bad input (an FMU missing or
+value), held over each communication step h, or by --input REC.csv. Exit code 0: every check passed; 1: a check failed; 2: bad input (an FMU missing or
 unreadable).
 """
 
@@ -26,6 +26,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                      "else 1 s)")
     parser.add_argument("--step", type=float, help="communication step h [s] (default: the default experiment's, "
                                                      "else stop/500)")
+    parser.add_argument("--input", metavar="REC.csv", help="drive the runs by this recording: time first, then "
+                        "columns named like the inputs (others keep the default sine); sets --stop to its end")
     parser.add_argument("--only", nargs="+", choices=("static", "sequence", "determinism", "rollback",
                                                       "convergence", "inputs"), help="run only these checks")
 
@@ -35,10 +37,10 @@ def run(args: argparse.Namespace) -> int:
     from pendfmu.check.fmu import Target
 
     for path in args.fmus:  # every file readable before any check runs
-        Target(path, args.stop, args.step)
+        Target(path, args.stop, args.step, args.input)
     failed = False
     for path in args.fmus:
-        results = run_battery(path, args.stop, args.step, tuple(args.only) if args.only else None)
+        results = run_battery(path, args.stop, args.step, tuple(args.only) if args.only else None, args.input)
         print(format_table(path, results), flush=True)
         failed |= any(not r.passed for r in results)
     return 1 if failed else 0
