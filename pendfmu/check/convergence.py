@@ -23,6 +23,8 @@ RELATIVE = 1e-6
 
 def run(target: Target, kind: str) -> list[CheckResult]:
     name = f"convergence: h, h/2, h/4 {kind}"
+    if not target.outputs:
+        return [CheckResult(name, True, "no outputs to compare")]
     h = target.step
     stimulus = target.stimulus(h)
     runs = []

@@ -50,6 +50,11 @@ def run(target: Target, kind: str) -> list[CheckResult]:
                                    + first_difference(target, first, second, times(target, len(first)))))
     name = f"determinism: reset {kind}"
     varied = target.varied_parameter()
+    try:  # before the instance under test exists (an FMU may allow one instance at a time)
+        fresh = fresh_run(target, kind, {varied[0].name: varied[1]}) if varied else None
+    except Exception as error:
+        results.append(CheckResult(name, False, "run failed", call_error(error)))
+        return results
     unit = Instance(target, kind)
     try:
         # the instance's first run with p = b (not a: an FMU that derives values from p once
@@ -78,7 +83,6 @@ def run(target: Target, kind: str) -> list[CheckResult]:
             # reset again, set p = a: must act like a fresh instance with p = a
             unit.reset()
             after_set = _run(target, unit, {p.name: a})
-            fresh = fresh_run(target, kind, {p.name: a})
             moved = compare(fresh, first)
             difference = compare(after_set, fresh)
             figure += f"; {p.name} = {a:g} set after reset: {difference:.3g}"

@@ -141,7 +141,7 @@ class Target:
             high = float(v.max) if v.max is not None else math.inf
             if not low <= value <= high:
                 value = start * 0.8 if start != 0 else (low + start) / 2 if math.isfinite(low) else start - 0.5
-            if low <= value <= high and value != start and v.name not in ("solver_step",):
+            if low <= value <= high and value != start:
                 return v, value
         return None
 

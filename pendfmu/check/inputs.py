@@ -22,6 +22,8 @@ def run(target: Target, kind: str) -> list[CheckResult]:
     name = f"inputs: finite outputs {kind}"
     if not target.inputs:
         return [CheckResult(name, True, "no Real inputs")]
+    if not target.outputs:
+        return [CheckResult(name, True, "no outputs to compare")]
     h = target.step
     steps = max(1, min(200, int(round(target.stop / h / 5))))
     starts = np.array([float(v.start) if v.start is not None else 0.0 for v in target.inputs])
