@@ -118,6 +118,18 @@ def check_capabilities(target: Target, kind: str) -> CheckResult:
                 unit.fmu.freeFMUstate(copy)
                 tried.append(f"serialize ({len(data)} bytes)")
             unit.fmu.freeFMUstate(state)
+        if kind == "CS" and interface.canInterpolateInputs and target.inputs:
+            unit.fmu.setRealInputDerivatives([target.inputs[0].valueReference], [1], [0.0])
+            tried.append("input derivatives")
+        reals = [v for v in target.outputs if v.type == "Real"]
+        if getattr(interface, "providesDirectionalDerivative", False) and reals and target.inputs:
+            slope = unit.fmu.getDirectionalDerivative([reals[0].valueReference], [target.inputs[0].valueReference],
+                                                      [1.0])
+            if not np.all(np.isfinite(slope)):
+                return CheckResult(name, False, "directional derivative",
+                                   f"providesDirectionalDerivative: d{reals[0].name}/d{target.inputs[0].name} = "
+                                   f"{slope[0]} is not finite")
+            tried.append("directional derivative")
         if kind == "CS" and interface.canHandleVariableCommunicationStepSize:
             unit.step(h / 2, None)
             unit.step(h / 3, None)
