@@ -66,6 +66,8 @@ def _judge(name: str, case: str, report: dict) -> CheckResult:
     if report.get("skip"):
         return CheckResult(name, True, "not applicable", report["skip"])
     status, logged, what = report["status"], report["logged"], report["call"]
+    if status < 0:  # the child could not set the misuse up: the checker's trouble, said as such
+        return CheckResult(name, False, "not run", f"the misuse could not be set up: {logged[0] if logged else '?'}")
     said = f"; it logged: {logged[0]}" if logged else ""
     if status >= ERROR:
         if not logged:
