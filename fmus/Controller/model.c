@@ -42,6 +42,10 @@
  * pendfmu/components.py, which sizes the store). */
 #define MAX_SAMPLES 100
 
+/* The part of a sample time by which a Co-Simulation communication point may miss a sample
+ * and still be it (model_time_event_window). */
+#define SAMPLE_JITTER 0.01
+
 /* Store layout: scalars, then s_{k-1} ... s_{k-n_d}, then w_{k-1} ... w_{k-delay}. */
 enum { ST_T0 = 0, ST_K = 1, ST_I = 2, ST_HISTORY = 8, ST_DELAY = ST_HISTORY + MAX_SAMPLES,
        ST_SIZE = ST_DELAY + MAX_SAMPLES };
@@ -124,6 +128,14 @@ void model_outputs(Instance *inst, double t, const double *x) { (void)inst, (voi
 
 double model_next_time_event(const Instance *inst) {
     return inst->s.store[ST_T0] + inst->s.store[ST_K] * R(T_s);
+}
+
+/* A communication point within a hundredth of a sample time of a sample is that sample's
+ * instant: logged time stamps jitter (EMPS's by 3e-8 s around whole milliseconds), and a
+ * sample taken in the step before would read the previous point's inputs, and the step
+ * after would hold two samples. */
+double model_time_event_window(const Instance *inst) {
+    return SAMPLE_JITTER * R(T_s);
 }
 
 void model_time_event(Instance *inst, double t, bool commit) {

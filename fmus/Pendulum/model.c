@@ -148,3 +148,8 @@ double model_next_time_event(const Instance *inst) {
 }
 
 void model_time_event(Instance *inst, double t, bool commit) { (void)inst, (void)t, (void)commit; }
+
+double model_time_event_window(const Instance *inst) {
+    (void)inst;
+    return 0.0;
+}

@@ -103,9 +103,14 @@ static bool null_arrays(Instance *inst, const char *function, size_t n, const vo
 /* ---------------------------------------------------------------- outputs */
 
 /* Whether a time event falls on the instance's current time and is not yet taken. */
+static double time_event_window(const Instance *inst, double t) {
+    const double tolerance = TIME_EVENT_TOLERANCE * fmax(1.0, fabs(t));
+    return inst->type == fmi2CoSimulation ? fmax(tolerance, model_time_event_window(inst)) : tolerance;
+}
+
 static bool time_event_due(const Instance *inst) {
     const double t = inst->s.time;
-    return model_next_time_event(inst) <= t + TIME_EVENT_TOLERANCE * fmax(1.0, fabs(t));
+    return model_next_time_event(inst) <= t + time_event_window(inst, t);
 }
 
 /* Take every time event due at the current time (inputs evaluated there). Returns false
@@ -599,7 +604,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
         return fail(inst, "fmi2DoStep: step from t = %.12g failed", currentCommunicationPoint);
     double events = 0.0;
     for (double t_event = model_next_time_event(inst);
-         t_event < t_end - TIME_EVENT_TOLERANCE * fmax(1.0, fabs(t_end)); t_event = model_next_time_event(inst)) {
+         t_event < t_end - time_event_window(inst, t_end); t_event = model_next_time_event(inst)) {
         if (++events > MAX_INTERNAL_STEPS)
             return fail(inst, "fmi2DoStep: a step of %g s holds more than %.0f time events (samples): take shorter "
                         "steps", communicationStepSize, MAX_INTERNAL_STEPS);

@@ -210,4 +210,11 @@ double model_next_time_event(const Instance *inst);
  * the inputs of a communication point on which an event falls (see fmi2DoStep). */
 void model_time_event(Instance *inst, double t, bool commit);
 
+/* How far [s] a time event may lie from a Co-Simulation communication point and still be
+ * taken at that point, with the inputs set there: a sampled model whose master's points
+ * jitter around its samples (logged time stamps) then takes each sample at its point, not
+ * in the step before with the previous inputs. 0: the framework's TIME_EVENT_TOLERANCE alone.
+ * Model Exchange takes time events where the importer stops for them, without a window. */
+double model_time_event_window(const Instance *inst);
+
 #endif

@@ -18,9 +18,9 @@ In pendfmu's terms:
 The recordings (conversion, the only place the data are touched):
 
 * time is the sample index times 1 ms: the controller's own clock. The stored stamps
-  deviate from k ms by up to 3e-8 s, and a co-simulated sampled controller takes a sample
-  in the communication step that contains it: a stamp 3e-8 s early puts two samples into
-  one step and none into the next (measured: spikes of 1.6 V every few samples).
+  deviate from k ms by up to 3e-8 s; the Controller takes a communication point within
+  1 % of T_s of a sample as that sample (README, "Jittered time stamps"), so the stored
+  stamps would do as well, but the nominal grid is what the controller ran on.
 * qg drives Controller.r, the pulses Controller.u_ff (zero in DATA_EMPS). In DATA_EMPS_PULSES
   the pulses act one sample before pulses_N shows them: see :func:`protocols`.
 * qm is matched by Cart.x (one encoder count, 5e-8 m); vir, one sample late, by Controller.u:
