@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import pendfmu
+import pendfmu.fitting.models
 from pendfmu.errors import BadInput
 from pendfmu.components import rig_defaults
 from pendfmu.fitting.residuals import Residuals
@@ -297,3 +298,27 @@ def test_a_run_the_replay_cannot_follow_gets_a_hint_to_segment_it():
                       signal_info={"phi": SignalInfo(step)})
     followed = pendfmu.fit("pendulum", [decay], uncertainty="jacobian", global_search=OPTIONS)
     assert not any("drifts away" in w for w in followed.warnings)
+
+
+def test_a_models_segments_start_from_the_slope_of_their_readings():
+    """A user's FMU has no recorded speed: `initial` maps x' (the rate of x) to v0, so that
+    each segment's initial speed is estimated from its first readings of x as for a stage.
+    The cart already moving, four segments, the Cart FMU fitted as a model: the friction
+    and every segment's start found as by the cart stage (test above)."""
+    from pendfmu.fmubuild import ensure_fmu
+
+    t = np.arange(0, 1.6, 1e-3)
+    current = smooth_current(t) + 1.0
+    x = np.round(cart_run(t, current, {}, x0=0.02, v0=0.15) / STEP_X) * STEP_X
+    model = pendfmu.fitting.models.load_model(ensure_fmu("Cart"))
+    rec = Recording(None, t, {"I": current, "x": x}, signal_info={"x": SignalInfo(STEP_X)},
+                    vocabulary=model.vocabulary())
+    known = {"m_p": 0.0, "eta": 0.4, "F_Sc": 0.0, "k_fwc": 20.0, "F_Kc": 2.0}
+    result = pendfmu.fit(model, [rec], params=known, free=["k_fwc", "F_Kc"], segment=0.4,
+                         initial={"x": "x0", "x'": "v0"}, bounds={"k_fwc": (5.0, 80.0), "F_Kc": (0.5, 10.0)},
+                         uncertainty="jacobian", global_search=OPTIONS)
+    first = result.initial["recording@0-0.399s"]
+    assert first["x0"] == pytest.approx(0.02, abs=2 * STEP_X) and first["v0"] == pytest.approx(0.15, abs=2e-3)
+    assert set(result.initial["recording@1.2-1.599s"]) == {"x0", "v0"}
+    assert result.parameters["k_fwc"] == pytest.approx(26.0, rel=0.005)
+    assert result.parameters["F_Kc"] == pytest.approx(3.0, rel=0.02)

@@ -62,7 +62,8 @@ guessed initial rate (the EMPS benchmark's state initialization window)."""
 def start_of(recording: Recording, state: StartState) -> tuple[float, float, float]:
     """(value, low, high) of an initial state from the recording's first readings: a
     position-like state is the first reading within two sensor steps; a rate the slope
-    of a quadratic through the first START_SAMPLES readings, within ten times that
+    of a quadratic through the first START_SAMPLES readings (or a twentieth of a short
+    recording, at least five: a segment's speed may reverse soon), within ten times that
     slope's standard error (the sensor's error scale through the least squares), a
     quarter of its size, or one step per window, whichever is widest."""
     values = recording.signal(state.column)
@@ -71,7 +72,7 @@ def start_of(recording: Recording, state: StartState) -> tuple[float, float, flo
     if not state.rate:
         first = float(values[present[0]])
         return first, first - 2 * step, first + 2 * step
-    chosen = present[:START_SAMPLES]
+    chosen = present[:max(5, min(START_SAMPLES, len(present) // 20))]  # a twentieth of a short segment
     if len(chosen) < 3:
         raise RecordingError(f"{recording.source}: too few readings of {state.column!r} to tell the initial "
                              f"{state.parameter}")

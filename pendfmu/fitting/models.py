@@ -99,7 +99,9 @@ def without_aliases(model: Model, values: Mapping[str, float], names: Sequence[s
 
 def initial_map(model: Model, given: Mapping[str, str] | None) -> dict[str, str]:
     """Signal -> the parameter of its initial value: `given`, else by the convention of
-    MODEL.md and most exported models, an output `x` whose initial value is parameter `x0`."""
+    MODEL.md and most exported models, an output `x` whose initial value is parameter `x0`.
+    A signal written with a prime (x') stands for its rate: "x'" -> "v0" lets a window or
+    segment estimate its initial speed from the slope of its first readings of x."""
     parameters = set(model.names("parameter"))
     found = {name: f"{name}0" for name in model.names("output") if f"{name}0" in parameters}
     for signal, parameter in (given or {}).items():
@@ -132,7 +134,8 @@ def model_setup(model: Model, recording: Recording, drive: Mapping[str, str] | N
     if not match:
         raise BadInput(f"{recording.path}: no recorded column is an output of {model.name} (outputs: "
                        f"{', '.join(model.names('output'))}); name them with match (--match OUTPUT=COLUMN)")
-    starts = tuple(StartState(parameter, signal) for signal, parameter in (initial or {}).items() if signal in columns)
+    starts = tuple(StartState(parameter, signal.rstrip("'"), rate=signal.endswith("'"))
+                   for signal, parameter in (initial or {}).items() if signal.rstrip("'") in columns)
     return Setup(model.name, model, {name: (column, interpolation) for name, column in drive.items()}, dict(match),
                  starts=starts)
 
