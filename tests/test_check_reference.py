@@ -5,6 +5,7 @@ simulator (tests/reference_rig.py)."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -133,3 +134,95 @@ def test_a_bad_reference_is_bad_input(cart, tmp_path, capsys):
     assert main(["check", str(cart["fmu"]), "--reference", str(wrong)]) == 2
     assert "wrong.csv: column 'q' is not a variable of Cart.fmu" in capsys.readouterr().err
     assert main(["check", str(cart["fmu"]), "--reference", str(cart["reference"]), "--rtol", "-1"]) == 2
+
+
+# -- reference results carried by the FMU (FMI-LS-REF)
+
+def split(reference, folder):
+    """The reference CSV as two files: the stimulus (time, I) and the results (time, x, v, a)."""
+    lines = [line.split(",") for line in reference.read_text().splitlines()]
+    stimulus, results = folder / "stimulus.csv", folder / "results.csv"
+    stimulus.write_text("\n".join(",".join(row[:2]) for row in lines) + "\n")
+    results.write_text("\n".join(",".join([row[0]] + row[2:]) for row in lines) + "\n")
+    return stimulus, results
+
+
+def export_cart(folder, params, reference, stimulus=None):
+    import json
+
+    folder.mkdir(parents=True, exist_ok=True)
+    parameters = folder / "params.json"
+    parameters.write_text(json.dumps({"parameters": params}))
+    args = ["export", "--params", str(parameters), "--out", str(folder), "--component", "Cart",
+            "--reference", str(reference)] + (["--input", str(stimulus)] if stimulus else [])
+    assert main(args) == 0
+    return folder / "Cart.fmu"
+
+
+def test_export_stores_the_reference_in_the_fmu_and_check_finds_and_passes_it(cart, tmp_path, capsys):
+    import zipfile
+
+    from pendfmu.export.lsref import FOLDER, MANIFEST, check_manifest
+
+    fmu = export_cart(tmp_path, FIG3, cart["reference"])
+    assert f"Cart.fmu (with the reference results in {FOLDER}/)" in capsys.readouterr().out
+    with zipfile.ZipFile(fmu) as archive:
+        names = set(archive.namelist())
+        manifest = archive.read(MANIFEST)
+    assert {MANIFEST, f"{FOLDER}/experiments.xml", f"{FOLDER}/reference.csv"} <= names
+    assert check_manifest(manifest) == []
+    assert main(["check", str(fmu), "--only", "reference"]) == 0
+    out = capsys.readouterr().out
+    assert "PASS  reference: x CS" in out and "PASS  reference: a ME" in out
+    assert f"[reference from the FMU: {FOLDER}/reference.csv]" in out
+
+
+def test_an_fmu_whose_carried_reference_was_made_at_other_parameters_fails(cart, tmp_path, capsys):
+    stimulus, results = split(cart["reference"], tmp_path)
+    fmu = export_cart(tmp_path, {**FIG3, "m_c": FIG3["m_c"] * 1.01}, results, stimulus)  # reference at m_c, FMU not
+    capsys.readouterr()
+    assert main(["check", str(fmu), "--only", "reference"]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL  reference: x CS" in out and "x leaves the tolerance tube at t = " in out
+    assert "[reference from the FMU: extra/org.fmi-standard.fmi-ls-ref/reference.csv]" in out
+    # the stimulus travelled too: the same FMU at the reference's parameters passes with it
+    good = export_cart(tmp_path / "good", FIG3, results, stimulus)
+    assert main(["check", str(good), "--only", "reference"]) == 0
+
+
+def test_the_manifest_is_valid_by_the_layered_standard_schema_and_the_ls_ref_rules(cart, tmp_path):
+    """fmpy ships FMI 3.0's fmi3LayeredStandardManifest.xsd (the fmi-ls attributes every
+    layered standard's manifest root carries); the root and its Related entries are checked
+    by check_manifest (root fmiReferences, fixed name and description, source and a role
+    from the standard's list)."""
+    import zipfile
+
+    import fmpy
+    from lxml import etree
+
+    from pendfmu.export.lsref import MANIFEST, check_manifest
+
+    fmu = export_cart(tmp_path, FIG3, cart["reference"])
+    with zipfile.ZipFile(fmu) as archive:
+        manifest = archive.read(MANIFEST)
+    ls_schema = Path(fmpy.__file__).parent / "schema" / "fmi3" / "fmi3LayeredStandardManifest.xsd"
+    wrapper = tmp_path / "manifest.xsd"  # the root element with the layered standards' attribute group
+    wrapper.write_text(f"""<?xml version="1.0" encoding="UTF-8"?>
+<xs:schema xmlns:xs="http://www.w3.org/2001/XMLSchema" xmlns:fmi-ls="http://fmi-standard.org/fmi-ls-manifest">
+  <xs:import namespace="http://fmi-standard.org/fmi-ls-manifest" schemaLocation="{ls_schema.as_uri()}"/>
+  <xs:element name="fmiReferences"><xs:complexType>
+    <xs:sequence><xs:element name="Related" minOccurs="0" maxOccurs="unbounded"><xs:complexType>
+      <xs:attribute name="source" type="xs:anyURI" use="required"/>
+      <xs:attribute name="role" type="xs:string" use="required"/>
+      <xs:attribute name="type" type="xs:string"/><xs:attribute name="description" type="xs:string"/>
+    </xs:complexType></xs:element></xs:sequence>
+    <xs:attributeGroup ref="fmi-ls:ALayeredStandardManifest"/>
+  </xs:complexType></xs:element>
+</xs:schema>
+""")
+    schema = etree.XMLSchema(etree.parse(str(wrapper)))
+    assert schema.validate(etree.fromstring(manifest)), schema.error_log
+    assert check_manifest(manifest) == []
+    broken = manifest.replace(b'role="result"', b'role="expected"').replace(b"org.fmi-standard.fmi-ls-ref", b"x")
+    assert check_manifest(broken) == ["fmi-ls:fmi-ls-name is 'x', must be 'org.fmi-standard.fmi-ls-ref'",
+                                      "Related 'reference.csv': role 'expected' is not one of the standard's"]

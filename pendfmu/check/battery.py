@@ -13,6 +13,7 @@ from pendfmu.check import convergence, determinism, inputs, rollback, sequence, 
 from pendfmu.check import reference as reference_mod
 from pendfmu.check.fmu import CheckResult, Target
 from pendfmu.check.reference import DEFAULT_ATOL, DEFAULT_RTOL
+from pendfmu.errors import BadInput
 
 DYNAMIC = (sequence, determinism, rollback, convergence, inputs)
 
@@ -39,7 +40,13 @@ def run_battery(path: str | Path, stop: float | None = None, step: float | None 
         for kind in target.interfaces:
             results += _guarded(f"{label} {kind}", lambda: module.run(target, kind))
     if only is None or "reference" in only:
-        for ref in ([known] if known is not None else reference_mod.carried(target)):
+        references = [known] if known is not None else []
+        if known is None:
+            try:
+                references = reference_mod.carried(target)
+            except BadInput as error:  # the FMU's own references are broken: its failure
+                results.append(CheckResult("reference: FMI-LS-REF", False, "unreadable", str(error)))
+        for ref in references:
             for kind in target.interfaces:
                 results += _guarded(f"reference {kind}",
                                     lambda: reference_mod.run(target, kind, ref, atol, rtol, ttol, plot_dir))

@@ -244,7 +244,8 @@ def plot_violation(path: Path, name: str, times, reference, result, low, high, o
 
 # -- reading a reference and running the FMU on its grid
 
-def read_reference_csv(path: str | Path, target: Target, origin: str | None = None, text: str | None = None) -> Reference:
+def read_reference_csv(path: str | Path, target: Target, origin: str | None = None, text: str | None = None,
+                       inputs_only: bool = False) -> Reference:
     """A reference CSV: time first, then columns named like the FMU's variables; columns of
     inputs are the stimulus, the others are compared. Empty cells are missing samples."""
     path = Path(path)
@@ -275,7 +276,9 @@ def read_reference_csv(path: str | Path, target: Target, origin: str | None = No
     columns = {name: data[:, j] for j, name in enumerate(header) if j}
     stimulus = {n: c for n, c in columns.items() if n in inputs}
     compared = {n: c for n, c in columns.items() if n not in inputs}
-    if not compared:
+    if inputs_only and compared:
+        raise BadInput(f"{path}: column {next(iter(compared))!r} is not an input of {target.name}")
+    if not compared and not inputs_only:
         raise BadInput(f"{path}: no column to compare (every column is an input of {target.name})")
     if any(np.isnan(c).any() for c in stimulus.values()):
         raise BadInput(f"{path}: an input column has a missing value")
@@ -352,6 +355,25 @@ def run(target: Target, kind: str, reference: Reference, atol: float = DEFAULT_A
     return rows
 
 
+
 def carried(target: Target) -> list[Reference]:
-    """The reference results the FMU carries in its FMI-LS-REF folder (none yet)."""
-    return []
+    """The reference results the FMU carries (FMI-LS-REF, pendfmu/export/lsref.py), each
+    with its stimulus: the stimulus's columns held from each of its rows to the next (on
+    the reference's very rows when both files share the time column)."""
+    from pendfmu.export import lsref
+
+    references = []
+    for found in lsref.carried(target.path):
+        where = f"{target.name}:{found.member}"
+        reference = read_reference_csv(where, target, origin=f"reference from the FMU: {found.member}",
+                                       text=found.text)
+        if found.stimulus_text is not None:
+            stimulus = read_reference_csv(f"{target.name}:{found.stimulus_member}", target, text=found.stimulus_text,
+                                          inputs_only=True)
+            same_grid = len(stimulus.times) == len(reference.times) and np.array_equal(stimulus.times, reference.times)
+            index = (np.arange(len(reference.times)) if same_grid else
+                     np.maximum(np.searchsorted(stimulus.times, reference.times, side="right") - 1, 0))
+            for name, column in stimulus.inputs.items():
+                reference.inputs.setdefault(name, column[index])
+        references.append(reference)
+    return references
