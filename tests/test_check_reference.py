@@ -226,3 +226,36 @@ def test_the_manifest_is_valid_by_the_layered_standard_schema_and_the_ls_ref_rul
     broken = manifest.replace(b'role="result"', b'role="expected"').replace(b"org.fmi-standard.fmi-ls-ref", b"x")
     assert check_manifest(broken) == ["fmi-ls:fmi-ls-name is 'x', must be 'org.fmi-standard.fmi-ls-ref'",
                                       "Related 'reference.csv': role 'expected' is not one of the standard's"]
+
+
+def test_the_stimulus_can_come_from_input_and_export_misuse_is_bad_input(cart, tmp_path, capsys):
+    stimulus, results = split(cart["reference"], tmp_path)
+    assert main(["check", str(cart["fmu"]), "--only", "reference", "--reference", str(results),
+                 "--input", str(stimulus)]) == 0
+    assert "PASS  reference: a CS" in capsys.readouterr().out
+    parameters = tmp_path / "p.json"
+    parameters.write_text('{"parameters": {"m_c": 0.5}}')
+    base = ["export", "--params", str(parameters), "--out", str(tmp_path / "out"), "--component", "Cart"]
+    assert main(base + ["--input", str(stimulus)]) == 2
+    assert "--input needs --reference" in capsys.readouterr().err
+    foreign = tmp_path / "foreign.csv"
+    foreign.write_text("time,theta\n0,1\n")
+    assert main(base + ["--reference", str(foreign)]) == 2
+    assert "its columns are not all variables of any exported FMU" in capsys.readouterr().err
+
+
+def test_a_broken_manifest_in_the_fmu_is_a_failed_row(cart, tmp_path, capsys):
+    import zipfile
+
+    from pendfmu.export.lsref import MANIFEST
+
+    fmu = export_cart(tmp_path, FIG3, cart["reference"])
+    broken = tmp_path / "Broken.fmu"
+    with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(broken, "w") as dst:
+        for info in src.infolist():
+            data = src.read(info)
+            dst.writestr(info, data.replace(b'role="result"', b'role="expected"') if info.filename == MANIFEST else data)
+    capsys.readouterr()
+    assert main(["check", str(broken), "--only", "reference"]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL  reference: FMI-LS-REF" in out and "role 'expected' is not one of the standard's" in out
