@@ -259,3 +259,31 @@ def test_a_broken_manifest_in_the_fmu_is_a_failed_row(cart, tmp_path, capsys):
     assert main(["check", str(broken), "--only", "reference"]) == 1
     out = capsys.readouterr().out
     assert "FAIL  reference: FMI-LS-REF" in out and "role 'expected' is not one of the standard's" in out
+
+
+def test_a_users_fmu_exported_with_fmu_carries_the_reference_and_is_checked_as_described(tmp_path, capsys):
+    """`pendfmu export --fmu`: the copy's XML carries the new start values, its binary its
+    compiled defaults; check sets the declared start values, so a copy exported at m = 1.02
+    against a reference made at m = 1 fails on x, one exported at m = 1 passes."""
+    from foreign.build import build
+
+    from pendfmu.check.fmu import Target
+    from pendfmu.check.reference import Reference, run_on_grid
+
+    fmu = build("ForeignCart", tmp_path)  # a C FMU that does not use pendfmu's framework; m = 1 by default
+    times = np.linspace(0.0, 1.0, 1001)
+    force = np.where(times < 0.5, 1.5, -1.5)
+    run = run_on_grid(Target(fmu), "CS", Reference(times, {"u": force}, {"x": times, "v": times}, "made here"))
+    reference = tmp_path / "reference.csv"
+    reference.write_text("time,u,x,v\n" + "".join(f"{float(t)!r},{float(u)!r},{float(x)!r},{float(v)!r}\n"
+                                                 for t, u, x, v in zip(times, force, run["x"], run["v"])))
+    for mass, expected in ((1.0, 0), (1.02, 1)):
+        folder = tmp_path / f"m{mass}"
+        folder.mkdir()
+        (folder / "p.json").write_text(f'{{"parameters": {{"m": {mass}}}}}')
+        assert main(["export", "--fmu", str(fmu), "--params", str(folder / "p.json"), "--out", str(folder),
+                     "--reference", str(reference)]) == 0
+        capsys.readouterr()
+        assert main(["check", str(folder / "ForeignCart.fmu"), "--only", "reference"]) == expected
+        out = capsys.readouterr().out
+        assert ("FAIL  reference: x CS" in out) == bool(expected), out

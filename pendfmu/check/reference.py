@@ -287,7 +287,8 @@ def read_reference_csv(path: str | Path, target: Target, origin: str | None = No
 
 def run_on_grid(target: Target, kind: str, reference: Reference,
                 recording: tuple[np.ndarray, dict[str, np.ndarray]] | None = None) -> dict[str, np.ndarray]:
-    """The FMU (fresh instance, start values) run through the reference's rows: a step from
+    """The FMU (fresh instance, its Real parameters set to their declared start values) run
+    through the reference's rows: a step from
     each row's time to the next (none at a repeated time stamp), the inputs of the row held
     over it; the compared variables read after each step."""
     times = reference.times
@@ -313,7 +314,11 @@ def run_on_grid(target: Target, kind: str, reference: Reference,
             if getter is not None:
                 out[k, j] = float(getter([v.valueReference])[0])
     try:
-        unit.initialize(None, inputs[0] if inputs is not None else None)
+        # every Real parameter at the start value the model description declares, as an
+        # importer that applies start values does: a copy whose XML says other values than
+        # its binary's defaults (pendfmu export --fmu) is checked as it is described
+        starts = {v.name: float(v.start) for v in target.parameters if v.start is not None}
+        unit.initialize(starts, inputs[0] if inputs is not None else None)
         read(0)
         for k in range(len(times) - 1):
             h = times[k + 1] - times[k]
