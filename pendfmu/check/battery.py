@@ -10,17 +10,26 @@ from __future__ import annotations
 from pathlib import Path
 
 from pendfmu.check import convergence, determinism, inputs, rollback, sequence, static
+from pendfmu.check import reference as reference_mod
 from pendfmu.check.fmu import CheckResult, Target
+from pendfmu.check.reference import DEFAULT_ATOL, DEFAULT_RTOL
+from pendfmu.errors import BadInput
 
 DYNAMIC = (sequence, determinism, rollback, convergence, inputs)
 
 
 def run_battery(path: str | Path, stop: float | None = None, step: float | None = None,
-                only: tuple[str, ...] | None = None, recording: str | Path | None = None) -> list[CheckResult]:
+                only: tuple[str, ...] | None = None, recording: str | Path | None = None,
+                reference: str | Path | None = None, atol: float = DEFAULT_ATOL, rtol: float = DEFAULT_RTOL,
+                ttol: float | None = None, plot_dir: str | Path | None = None) -> list[CheckResult]:
     """Every check on the FMU at `path`; `only` picks checks by module name ("static",
-    "sequence", "determinism", "rollback", "convergence", "inputs"); `recording` a CSV of
-    inputs (time first) that drives the runs instead of the default sine."""
+    "sequence", "determinism", "rollback", "convergence", "inputs", "reference");
+    `recording` a CSV of inputs (time first) that drives the runs instead of the default
+    sine. `reference` a CSV of reference results compared inside a tolerance tube (atol,
+    rtol, ttol; pendfmu/check/reference.py), else the reference results the FMU carries
+    (FMI-LS-REF), if any; `plot_dir` gets a PNG per failing variable."""
     target = Target(path, stop, step, recording)
+    known = reference_mod.read_reference_csv(reference, target) if reference is not None else None
     results: list[CheckResult] = []
     if only is None or "static" in only:
         results += _guarded("static", lambda: static.run(target))
@@ -30,6 +39,17 @@ def run_battery(path: str | Path, stop: float | None = None, step: float | None 
             continue
         for kind in target.interfaces:
             results += _guarded(f"{label} {kind}", lambda: module.run(target, kind))
+    if only is None or "reference" in only:
+        references = [known] if known is not None else []
+        if known is None:
+            try:
+                references = reference_mod.carried(target)
+            except BadInput as error:  # the FMU's own references are broken: its failure
+                results.append(CheckResult("reference: FMI-LS-REF", False, "unreadable", str(error)))
+        for ref in references:
+            for kind in target.interfaces:
+                results += _guarded(f"reference {kind}",
+                                    lambda: reference_mod.run(target, kind, ref, atol, rtol, ttol, plot_dir))
     return results
 
 

@@ -11,11 +11,19 @@ observed order, and finite outputs over each input's declared range.
 Inputs are driven by a slow sine over each input's declared range (else around its start
 value), held over each communication step h, or by --input REC.csv. Exit code 0: every check passed; 1: a check failed; 2: bad input (an FMU missing or
 unreadable).
+
+With --reference REF.csv (time first, columns named like the FMU's variables; columns of
+inputs are the stimulus) the FMU also runs on the reference's time grid and each other
+column is compared inside a tolerance tube: at each time t the result must lie within
+[min, max] of the reference over [t - ttol, t + ttol], widened by atol + rtol * max(|ref|,
+nominal) (nominal: the variable's nominal attribute, else the column's range). Without
+--reference, reference results the FMU carries (FMI-LS-REF) are used.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 
 HELP = "check FMI 2.0 FMUs: static, call sequence, determinism, rollback, step-size convergence, inputs"
 
@@ -29,18 +37,43 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--input", metavar="REC.csv", help="drive the runs by this recording: time first, then "
                         "columns named like the inputs (others keep the default sine); sets --stop to its end")
     parser.add_argument("--only", nargs="+", choices=("static", "sequence", "determinism", "rollback",
-                                                      "convergence", "inputs"), help="run only these checks")
+                                                      "convergence", "inputs", "reference"),
+                        help="run only these checks")
+    parser.add_argument("--reference", metavar="REF.csv", help="compare with this reference result in a tolerance "
+                        "tube (default: the reference results the FMU carries under extra/, if any)")
+    parser.add_argument("--atol", type=float, help="absolute tolerance (default 0: "
+                        "the nominal floor of --rtol is the absolute part)")
+    parser.add_argument("--rtol", type=float, help="relative tolerance, of max(|reference|, "
+                        "nominal) (default 1e-3)")
+    parser.add_argument("--ttol", type=float, help="time tolerance [s] at discontinuities (default: a tenth of the "
+                        "reference's median sample interval)")
+    parser.add_argument("--plot", metavar="DIR", help="write a PNG per variable outside its tube into DIR")
+
+
+def _tolerance(value: float | None, option: str) -> None:
+    from pendfmu.errors import BadInput
+
+    if value is not None and not (math.isfinite(value) and value >= 0):
+        raise BadInput(f"{option} {value}: needs a finite value >= 0")
 
 
 def run(args: argparse.Namespace) -> int:
     from pendfmu.check.battery import format_table, run_battery
     from pendfmu.check.fmu import Target
+    from pendfmu.check.reference import DEFAULT_ATOL, DEFAULT_RTOL, read_reference_csv
 
+    atol = DEFAULT_ATOL if args.atol is None else args.atol
+    rtol = DEFAULT_RTOL if args.rtol is None else args.rtol
+    for value, option in ((args.atol, "--atol"), (args.rtol, "--rtol"), (args.ttol, "--ttol")):
+        _tolerance(value, option)
     for path in args.fmus:  # every file readable before any check runs
-        Target(path, args.stop, args.step, args.input)
+        target = Target(path, args.stop, args.step, args.input)
+        if args.reference:
+            read_reference_csv(args.reference, target)
     failed = False
     for path in args.fmus:
-        results = run_battery(path, args.stop, args.step, tuple(args.only) if args.only else None, args.input)
+        results = run_battery(path, args.stop, args.step, tuple(args.only) if args.only else None, args.input,
+                              args.reference, atol, rtol, args.ttol, args.plot)
         print(format_table(path, results), flush=True)
         failed |= any(not r.passed for r in results)
     return 1 if failed else 0

@@ -10,6 +10,11 @@ and a complete rig model). m_p = 0 (pendulum removed) exports no Pendulum.
 With --fmu X.fmu (or --system S.ssp): DIR/<Name>.fmu, a copy of the user's FMU whose
 model description carries the values as start values (binaries untouched, GUID kept), and
 DIR/parameters.ssv (pendfmu/export/model.py says what the copy can and cannot do).
+
+With --reference REF.csv [--input STIM.csv]: each written FMU whose variables name every
+column of REF.csv also carries the reference results and the stimulus, in the layout of
+FMI-LS-REF (extra/org.fmi-standard.fmi-ls-ref/: fmi-ls-manifest.xml, experiments.xml,
+reference.csv, stimulus.csv); `pendfmu check FMU` compares with them.
 """
 
 from __future__ import annotations
@@ -32,19 +37,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     model.add_argument("--fmu", metavar="X.fmu", help="export for this FMU (a copy with the values as start "
                                                       "values, and an SSV file) instead of pendfmu's components")
     model.add_argument("--system", metavar="S.ssp", help="export for the FMUs of this SSP system")
+    parser.add_argument("--reference", metavar="REF.csv", help="store these reference results (time first, columns "
+                        "named like the FMU's variables) in each exported FMU they fit (FMI-LS-REF, extra/)")
+    parser.add_argument("--input", metavar="STIM.csv", help="with --reference: the stimulus (time first, columns "
+                        "named like the inputs) stored beside it")
 
 
 def run(args: argparse.Namespace) -> int:
     from pendfmu.export import plan_export, write_export
     from pendfmu.parameters import read_parameters
 
+    if args.input and not args.reference:
+        from pendfmu.errors import UsageError
+
+        raise UsageError("--input needs --reference (the stimulus goes with reference results)")
     if args.fmu or args.system:
         from pendfmu.export.model import export_model
         from pendfmu.fitting.models import checked_values, load_model
 
         model = load_model(args.fmu or args.system)
         values = read_parameters(args.params, lambda given, where: checked_values(model, given, where))
-        for path in export_model(model, values, args.out, source=args.params):
+        for path in _with_references(export_model(model, values, args.out, source=args.params), args):
             print(f"wrote {path}")
         return 0
     parameters = read_parameters(args.params)
@@ -53,6 +66,21 @@ def run(args: argparse.Namespace) -> int:
         print(f"note: {name} not exported: {why}", file=sys.stderr)
     for note in plan.notes:
         print(f"note: {note}", file=sys.stderr)
-    for path in write_export(plan, args.out):
+    for path in _with_references(write_export(plan, args.out), args):
         print(f"wrote {path}")
     return 0
+
+
+def _with_references(paths, args: argparse.Namespace) -> list[str]:
+    """The written paths; with --reference the FMUs it fits carry it (said after their name)."""
+    if not args.reference:
+        return [str(p) for p in paths]
+    from pendfmu.errors import UsageError
+    from pendfmu.export.lsref import FOLDER, add_references, fits
+
+    fmus = [p for p in paths if str(p).endswith(".fmu") and fits(p, args.reference)]
+    if not fmus:
+        raise UsageError(f"{args.reference}: its columns are not all variables of any exported FMU")
+    for fmu in fmus:
+        add_references(fmu, args.reference, args.input)
+    return [f"{p} (with the reference results in {FOLDER}/)" if p in fmus else str(p) for p in paths]
