@@ -121,3 +121,21 @@ def test_a_failing_helper_reads_as_a_pytest_failure(broken, tmp_path):
     assert done.returncode == 1, done.stdout + done.stderr
     assert "1 failed, 1 passed" in done.stdout
     assert "AssertionError: BrokenCart_state.fmu: rollback: FMU state CS: restoring the state saved" in done.stdout
+
+
+def test_deterministic_names_the_first_difference(broken, monkeypatch):
+    """No BrokenCart is nondeterministic: the second fresh run is perturbed here instead."""
+    from pendfmu.check import determinism
+
+    real, calls = determinism.fresh_run, []
+
+    def drifting(target, kind, parameters=None):
+        rows = real(target, kind, parameters)
+        calls.append(kind)
+        if len(calls) == 2:
+            rows[40:, 0] += 1e-9
+        return rows
+
+    monkeypatch.setattr(determinism, "fresh_run", drifting)
+    with pytest.raises(AssertionError, match=r"two fresh instances with the same inputs differ: x at t = 0.16 s"):
+        assert_deterministic(broken["ok"])
