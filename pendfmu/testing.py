@@ -12,7 +12,7 @@ Fixture
 
 Assertions (each raises AssertionError with the check's message: the variable, the time and
 the size of the violation), on an FMU file, for one interface or every interface it has:
-    ``assert_deterministic``, ``assert_reset_restores``, ``assert_state_rollback``,
+    ``assert_valid`` (the static checks), ``assert_deterministic``, ``assert_reset_restores``, ``assert_state_rollback``,
     ``assert_converges``, ``assert_finite_over_inputs``, ``assert_calls_rejected`` and
     ``assert_matches(result, reference, atol, rtol, ttol)``.
 
@@ -33,7 +33,7 @@ import pytest
 
 __all__ = ["FMURunner", "Run", "assert_calls_rejected", "assert_converges", "assert_deterministic",
            "assert_finite_over_inputs", "assert_matches", "assert_reset_restores", "assert_state_rollback",
-           "fmu_runner", "fmus_and_interfaces"]
+           "assert_valid", "fmu_runner", "fmus_and_interfaces"]
 
 KINDS = {"CS": "CS", "CoSimulation": "CS", "ME": "ME", "ModelExchange": "ME"}
 LONG = {"CS": "CoSimulation", "ME": "ModelExchange"}
@@ -134,7 +134,8 @@ class FMURunner:
         """Run the FMU from 0 to `stop` with communication step `step` (defaults: the
         recording's or stimulus' last time and sample period, else the FMU's default
         experiment's stop and step, else 1 s and stop/500). Inputs come from `recording` (a
-        pendfmu.recording.Recording or its file: columns named like the FMU's inputs) or
+        pendfmu.recording.Recording, its file, a CSV file with time first, or a mapping with
+        "time": the columns named like the FMU's inputs drive them, the others are ignored) or
         `stimulus` ({input: array over stimulus["time"] | constant | function of t}), held
         over each step (the last sample at or before the step's start). Returns the
         `outputs` (default: every output) at every communication point."""
@@ -177,12 +178,19 @@ def _inputs(target, stimulus, recording):
         raise ValueError("give a recording or a stimulus, not both")
     inputs = {v.name for v in target.inputs}
     if recording is not None:
-        from pendfmu.recording import Recording, read_recording
+        from pendfmu.recording import Recording, RecordingError, read_recording
 
-        if not isinstance(recording, Recording):
-            recording = read_recording(recording)
-        columns = {name: values for name, values in recording.signals.items() if name in inputs}
-        return np.asarray(recording.time, dtype=float), columns
+        if isinstance(recording, (str, Path)):
+            try:
+                recording = read_recording(recording)
+            except RecordingError:
+                if Path(recording).suffix.lower() != ".csv":
+                    raise
+                recording = _table(recording)  # a CSV whose names are not the rig's: time first
+        if isinstance(recording, Recording):
+            recording = {"time": recording.time, **recording.signals}
+        table = _table(recording)
+        return table["time"], {name: values for name, values in table.items() if name in inputs}
     if stimulus is None:
         return None, {}
     stimulus = dict(stimulus)
@@ -228,10 +236,20 @@ def fmu_runner():
 
 # -- the battery's checks as assertions
 
-def _rows(path, module, interface, stop, step, recording, prepare=None):
+def _target(path, stop=None, step=None, recording=None):
+    """pendfmu.check's Target; an FMU it cannot read (no file, no zip, invalid XML, not FMI
+    2.0) fails the assertion with the reason."""
     from pendfmu.check.fmu import Target
+    from pendfmu.errors import BadInput
 
-    target = Target(path, stop, step, recording)
+    try:
+        return Target(path, stop, step, recording)
+    except BadInput as error:
+        raise AssertionError(str(error)) from None
+
+
+def _rows(path, module, interface, stop, step, recording, prepare=None):
+    target = _target(path, stop, step, recording)
     if prepare is not None:
         prepare(target)
     kinds = target.interfaces if interface is None else [_kind(interface)]
@@ -252,12 +270,28 @@ def _fail_on(target, rows, contains: str = "") -> list:
     return chosen
 
 
+def assert_valid(fmu, interface: str | None = None):
+    """The static checks: the model description valid (fmpy's validate_fmu), every function
+    FMI 2.0 requires for the interface exported, a wrong GUID refused and the right one
+    accepted, the declared capabilities (FMU state, serialization, input derivatives,
+    directional derivatives, variable steps) working."""
+    from pendfmu.check import static
+
+    target = _target(fmu)
+    if interface is not None:
+        kind = _kind(interface)
+        if kind not in target.interfaces:
+            raise AssertionError(f"{target.name} has no {LONG[kind]} interface")
+        target.interfaces = [kind]
+    _fail_on(target, static.run(target))
+
+
 def assert_deterministic(fmu, interface: str | None = None, *, stop=None, step=None, recording=None):
     """Two fresh instances, same inputs: outputs identical bit for bit."""
     from pendfmu.check import determinism
-    from pendfmu.check.fmu import CheckResult, Target, call_error, compare, first_difference
+    from pendfmu.check.fmu import CheckResult, call_error, compare, first_difference
 
-    target, rows = Target(fmu, stop, step, recording), []
+    target, rows = _target(fmu, stop, step, recording), []
     for kind in (target.interfaces if interface is None else [_kind(interface)]):
         if kind not in target.interfaces:
             raise AssertionError(f"{target.name} has no {LONG[kind]} interface")

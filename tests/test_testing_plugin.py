@@ -16,7 +16,7 @@ from broken.build import build as build_broken
 from pendfmu.fmubuild import ensure_fmu
 from pendfmu.testing import (Run, assert_calls_rejected, assert_converges, assert_deterministic,
                              assert_finite_over_inputs, assert_matches, assert_reset_restores, assert_state_rollback,
-                             fmus_and_interfaces)
+                             assert_valid, fmus_and_interfaces)
 
 
 @pytest.fixture(scope="module")
@@ -54,10 +54,14 @@ def test_runner_holds_a_sampled_stimulus_and_reads_a_recording(fmu_runner, broke
     recording = Recording(None, times, {"I": np.full(5, 1.5)})  # the rig's names: I drives the Cart
     run = fmu_runner(ensure_fmu("Cart"), "CS", recording=recording)
     assert run.time[-1] == pytest.approx(0.2) and run["x"][-1] > 0
+    csv = tmp_path / "u.csv"  # not the rig's names: read as a plain CSV, time first; x is not an input
+    csv.write_text("time,u,x\n" + "".join(f"{a},{b},0\n" for a, b in zip(times, u)))
+    assert np.array_equal(fmu_runner(broken["ok"], recording=csv, step=0.01)["x"], sampled["x"])
 
 
 def test_each_helper_passes_on_the_correct_cart_and_fails_on_its_bug(broken):
     ok = broken["ok"]
+    assert_valid(ok)
     assert_deterministic(ok)
     assert_reset_restores(ok, parameter="m", value=1.25)
     assert_state_rollback(ok)
@@ -76,6 +80,8 @@ def test_each_helper_passes_on_the_correct_cart_and_fails_on_its_bug(broken):
         assert_finite_over_inputs(broken["nan"])
     with pytest.raises(AssertionError, match="has no ModelExchange interface"):
         assert_deterministic(ok, "ME")
+    with pytest.raises(AssertionError, match="absent.fmu: no such FMU file"):
+        assert_valid(ok.parent / "absent.fmu")
 
 
 def test_calls_rejected_passes_on_the_cart(broken):
