@@ -106,11 +106,10 @@ class FMURunner:
         self._targets: dict = {}
 
     def target(self, path: str | Path, stop: float | None = None, step: float | None = None):
-        from pendfmu.check.fmu import Target
-
+        """pendfmu.check's Target of the FMU file (read and unpacked once per runner)."""
         key = (str(Path(path).resolve()), stop, step)
         if key not in self._targets:
-            self._targets[key] = Target(path, stop, step)
+            self._targets[key] = _target(path, stop, step)
         return self._targets[key]
 
     def open(self, path: str | Path, interface: str = "CS", outputs: Iterable[str] | None = None):
