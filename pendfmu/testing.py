@@ -376,38 +376,41 @@ def assert_calls_rejected(fmu, interface: str | None = None, *, step=None):
 # -- agreement with a reference
 
 def assert_matches(result, reference, atol: float = 0.0, rtol: float = 0.0, ttol: float = 0.0,
-                   variables: Iterable[str] | None = None):
-    """Every variable of `result` named in `reference` lies inside the reference's tube: at each
-    of the result's times t inside the reference's span, the value must be within
-    atol + rtol * |y| of the reference's values over [t - ttol, t + ttol] (linear between its
-    samples). `result`, `reference`: a Run, a Recording, a mapping with "time" and columns, or a
-    CSV file (time first). A failure names the variable, the time, the value, the tube and by
-    how much it is missed.
+                   variables: Iterable[str] | None = None, nominal: Mapping[str, float] | None = None):
+    """Every variable of `result` named in `reference` lies inside the reference's tube, the
+    one `pendfmu check --reference` uses (pendfmu.check.reference.tube_check): at each of the
+    reference's times t, within atol + rtol * max(|y|, nominal) of the reference's values over
+    [t - ttol, t + ttol]. The result is taken at the reference's times (linear between its
+    own samples where the grids differ); `nominal` (per name, default 0) floors the relative
+    part near zero. `result`, `reference`: a Run, a Recording, a mapping with "time" and
+    columns, or a CSV file (time first). A failure names the variable, the time, the value,
+    the tube and by how much it is missed."""
+    from pendfmu.check.reference import tube_check
 
-    (A plain tube; it will use pendfmu.check.reference's comparison once that exists.)"""
     result, reference = _table(result), _table(reference)
     names = list(variables) if variables is not None else [n for n in reference if n != "time" and n in result]
     if not names:
         raise AssertionError(f"no variable in common between the result ({', '.join(n for n in result if n != 'time')})"
                              f" and the reference ({', '.join(n for n in reference if n != 'time')})")
     t_ref, t = reference["time"], result["time"]
-    inside = (t >= t_ref[0] - 1e-12) & (t <= t_ref[-1] + 1e-12)
+    inside = (t_ref >= t[0] - 1e-12) & (t_ref <= t[-1] + 1e-12)
+    same_grid = len(t) == len(t_ref) and np.array_equal(t, t_ref)
     problems = []
     for name in names:
         for table, which in ((result, "result"), (reference, "reference")):
             if name not in table:
                 raise AssertionError(f"{name!r} is not in the {which}")
-        y, y_ref = result[name][inside], reference[name]
-        low, high = _envelope(t_ref, y_ref, t[inside], ttol)
-        width = atol + rtol * np.maximum(np.abs(low), np.abs(high))
-        below, above = (low - width) - y, y - (high + width)
-        miss = np.where(np.isnan(y), np.inf, np.maximum(below, above))
+        y = result[name] if same_grid else np.interp(t_ref, t, result[name])
+        floor = float((nominal or {}).get(name, 0.0))
+        low, high, width, miss = tube_check(t_ref, reference[name], y, atol, rtol, ttol, floor)
+        miss = np.where(inside & (miss > width), miss - width, 0.0)
         k = int(np.argmax(miss))
         if miss[k] > 0:
             count = int(np.sum(miss > 0))
-            problems.append(f"{name} at t = {t[inside][k]:.6g} s: {y[k]:.10g} is outside the reference's "
+            problems.append(f"{name} at t = {t_ref[k]:.6g} s: {y[k]:.10g} is outside the reference's "
                             f"[{low[k] - width[k]:.10g}, {high[k] + width[k]:.10g}] by {miss[k]:.3g} "
-                            f"(atol {atol:g}, rtol {rtol:g}, ttol {ttol:g} s; {count} of {len(y)} points outside)")
+                            f"(atol {atol:g}, rtol {rtol:g}, ttol {ttol:g} s; {count} of {int(inside.sum())} points "
+                            f"outside)")
     if problems:
         raise AssertionError("\n".join(problems))
 
@@ -429,18 +432,3 @@ def _table(data) -> dict[str, np.ndarray]:
     return table
 
 
-def _envelope(t_ref, y_ref, t, ttol):
-    """The lowest and highest reference value over [t - ttol, t + ttol], linear between samples."""
-    if ttol <= 0:
-        value = np.interp(t, t_ref, y_ref)
-        return value, value
-    lo_t, hi_t = t - ttol, t + ttol
-    ends = np.stack([np.interp(lo_t, t_ref, y_ref), np.interp(hi_t, t_ref, y_ref)])
-    low, high = ends.min(axis=0), ends.max(axis=0)
-    first = np.searchsorted(t_ref, lo_t, side="right")
-    last = np.searchsorted(t_ref, hi_t, side="left")
-    for k in np.flatnonzero(last > first):
-        window = y_ref[first[k]:last[k]]
-        low[k] = min(low[k], window.min())
-        high[k] = max(high[k], window.max())
-    return low, high
