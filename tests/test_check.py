@@ -56,7 +56,7 @@ def test_the_foreign_fmus_pass_every_check(foreign):
 
 def test_the_cart_rollback_saves_a_state_while_sliding():
     (row, _) = run_battery(ensure_fmu("Cart"), stop=STOP, only=("rollback",))[:2]
-    assert "one in modes mode=1, stuck=0" in row.figure  # stuck at the start, sliding at this save
+    assert "mode combinations besides the start's, the first mode=1, stuck=0" in row.figure  # stuck, then sliding
 
 
 def test_the_correct_broken_cart_passes_and_each_bug_is_caught_by_its_check(broken):

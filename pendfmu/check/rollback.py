@@ -1,6 +1,6 @@
 """State rollback: an FMU state saved during a run (several points, among them the first
-where a discrete mode, an Integer or Boolean variable, differs from its value at the start,
-e.g. a cart sliding after it was stuck), restored after the run went on past further
+instant of each combination of discrete modes, Integer and Boolean variables, that the run
+visits, e.g. a cart sliding forwards, stuck, sliding backwards), restored after the run went on past further
 events, must reproduce the rest of the run bit for bit with the same inputs; so must a state
 serialized to bytes and deserialized."""
 
@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from pendfmu.check.fmu import CheckResult, Instance, Target, call_error, compare, first_difference
+
+MAX_MODE_SAVES = 8  # states saved at the first instants of this many mode combinations at most
 
 
 def run(target: Target, kind: str) -> list[CheckResult]:
@@ -28,9 +30,14 @@ def run(target: Target, kind: str) -> list[CheckResult]:
         unit.reset()
         unit.initialize(None, stimulus(0.0))
         points = {n // 4, n // 2, 3 * n // 4}
-        changed = next((k + 1 for k, (_, m) in enumerate(modes) if m != start), None)
-        if changed is not None and changed < n:
-            points.add(changed)
+        # the first instant of each combination of modes the run visits (sliding either way,
+        # stuck, saturated...), so that a state saved in every one of them is restored
+        first_in: dict[str, int] = {}
+        for k, (_, m) in enumerate(modes):
+            if m != start:
+                first_in.setdefault(repr(m), k + 1)
+        changed = min(first_in.values(), default=None)
+        points.update(k for k in list(first_in.values())[:MAX_MODE_SAVES] if k < n)
         points = sorted(p for p in points if 0 < p < n)
         saved, rows = {}, [unit.outputs()]
         for k in range(n):
@@ -52,7 +59,9 @@ def run(target: Target, kind: str) -> list[CheckResult]:
                 said = f" (modes {_modes(target, mode)} at the save)" if mode else ""
                 problems.append(f"restoring the state saved at t = {k * h:.6g} s{said} does not reproduce the run: "
                                 f"{where}")
-        figure = f"{len(points)} saves" + (f", one in modes {_modes(target, saved[changed][1])}"
+        visited = sum(1 for k in first_in.values() if k in saved)
+        figure = f"{len(points)} saves" + (f", in {visited} mode combinations besides the start's, the first "
+                                            f"{_modes(target, saved[changed][1])}"
                                             if changed in saved else ", no mode change seen")
         results = [CheckResult(name, not problems, figure + f"; max difference {worst:.3g}", "; ".join(problems[:2]))]
         if interface.canSerializeFMUstate:
