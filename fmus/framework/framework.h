@@ -139,6 +139,7 @@ typedef struct {
     fmi2CallbackFunctions cb;
     bool logging_on;
     bool log_events;
+    bool time_events; /* the model has time events (model_next_time_event finite after initialization) */
 } Instance;
 
 /* Logging through the host's logger callback (never crashes on a NULL logger). */
