@@ -179,3 +179,20 @@ def test_jittered_communication_points_are_the_samples(loop_ssp, reference):
     master.close()
     np.testing.assert_allclose(result["Cart.x"].to_numpy(), x, rtol=0, atol=3e-8)
     np.testing.assert_allclose(result["Controller.u"].to_numpy(), u, rtol=0, atol=1e-4)
+
+
+def test_cli_simulate_leaves_measured_columns_alone(loop_ssp, reference, tmp_path):
+    """A recording that holds the measured outputs beside the drive (what a user compares the
+    simulation with, here the reference's own x as "qm"): `pendfmu simulate` drives the model
+    from the columns it needs and leaves the rest, with the same result as without them."""
+    import pandas as pd
+
+    from pendfmu.cli import main
+
+    t, r, x, _ = reference
+    csv = tmp_path / "measured.csv"
+    pd.DataFrame({"time": t, "qg": r, "qm": x}).to_csv(csv, index=False, float_format="%.17g")
+    out = tmp_path / "out.csv"
+    assert main(["simulate", "--system", str(loop_ssp), "--input", str(csv), "--drive", "Controller.r=qg",
+                 "--out", str(out)]) == 0
+    np.testing.assert_allclose(pd.read_csv(out)["x"], x, rtol=0, atol=TOLERANCE)

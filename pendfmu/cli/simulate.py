@@ -64,5 +64,23 @@ def _simulate_model(args: argparse.Namespace):
     parameters = read_parameters(args.params, lambda values, where: checked_values(model, values, where)) \
         if args.params else {}
     drive = mapping(args.drive)
-    (recording,) = read_for(model, [args.input], drive, None, initial_map(model, None))
+    (recording,) = read_for(model, [args.input], drive, None, initial_map(model, None), _csv_columns(args.input))
     return simulate_model(model, recording, parameters, drive, args.interpolation)
+
+
+def _csv_columns(path: str) -> list[str]:
+    """The columns of a CSV recording's header besides time: a simulation drives the model's
+    inputs from the columns named after them (or mapped by --drive) and leaves the others
+    (the measured outputs a user compares the simulation with) alone, where a fit would
+    refuse a name it does not know. Nothing for a .mat file or an unreadable header (the
+    reader then says what is wrong)."""
+    from pathlib import Path
+
+    if Path(path).suffix.lower() != ".csv":
+        return []
+    try:
+        with open(path, encoding="utf-8-sig") as handle:
+            header = handle.readline()
+    except (OSError, UnicodeDecodeError):
+        return []
+    return [name.strip() for name in header.split(",")[1:] if name.strip()]

@@ -111,9 +111,11 @@ def initial_map(model: Model, given: Mapping[str, str] | None) -> dict[str, str]
 
 
 def read_for(model: Model, recordings: Sequence[str | Path | Recording], drive: Mapping[str, str] | None,
-             match: Mapping[str, str] | None, initial: Mapping[str, str]) -> list[Recording]:
-    """The recordings, read with the model's names (and the columns the user maps)."""
-    columns = [*(drive or {}).values(), *(match or {}).values()]
+             match: Mapping[str, str] | None, initial: Mapping[str, str], extra: Sequence[str] = ()
+             ) -> list[Recording]:
+    """The recordings, read with the model's names (and the columns the user maps, and
+    `extra` columns a caller takes as they are)."""
+    columns = [*(drive or {}).values(), *(match or {}).values(), *extra]
     vocabulary = model.vocabulary(columns, initial)
     return [r if isinstance(r, Recording) else read_recording(r, vocabulary=vocabulary) for r in recordings]
 
