@@ -239,14 +239,4 @@ void model_outputs(Instance *inst, double t, const double *x) {
 }
 
 /* No time events: a continuous model. */
-double model_next_time_event(const Instance *inst) {
-    (void)inst;
-    return INFINITY;
-}
-
-void model_time_event(Instance *inst, double t, bool commit) { (void)inst, (void)t, (void)commit; }
-
-double model_time_event_window(const Instance *inst) {
-    (void)inst;
-    return 0.0;
-}
+NO_TIME_EVENTS

@@ -218,4 +218,10 @@ void model_time_event(Instance *inst, double t, bool commit);
  * Model Exchange takes time events where the importer stops for them, without a window. */
 double model_time_event_window(const Instance *inst);
 
+/* The time-event hooks of a continuous model, which has none: one line in its model.c. */
+#define NO_TIME_EVENTS                                                                          \
+    double model_next_time_event(const Instance *inst) { (void)inst; return INFINITY; }        \
+    void model_time_event(Instance *inst, double t, bool commit) { (void)inst, (void)t, (void)commit; } \
+    double model_time_event_window(const Instance *inst) { (void)inst; return 0.0; }
+
 #endif
