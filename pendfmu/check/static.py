@@ -99,20 +99,22 @@ def check_capabilities(target: Target, kind: str) -> CheckResult:
         if interface.canGetAndSetFMUstate:
             state, time = unit.fmu.getFMUstate(), unit.time
             before = unit.outputs()
-            unit.step(h, None)
-            unit.fmu.setFMUstate(state)
-            unit.time = time
-            if not np.array_equal(unit.outputs(), before, equal_nan=True):
+
+            def restores(saved) -> bool:
+                """Step on, set `saved` back: the outputs are those at the save."""
+                unit.step(h, None)
+                unit.fmu.setFMUstate(saved)
+                unit.time = time
+                return np.array_equal(unit.outputs(), before, equal_nan=True)
+
+            if not restores(state):
                 return CheckResult(name, False, "state get/set",
                                    "canGetAndSetFMUstate: after fmi2SetFMUstate the outputs are not those at the save")
             tried.append("get/set state")
             if interface.canSerializeFMUstate:
                 data = unit.fmu.serializeFMUstate(state)
                 copy = unit.fmu.deSerializeFMUstate(data)
-                unit.step(h, None)
-                unit.fmu.setFMUstate(copy)
-                unit.time = time
-                if not np.array_equal(unit.outputs(), before, equal_nan=True):
+                if not restores(copy):
                     return CheckResult(name, False, "serialize",
                                        "canSerializeFMUstate: a deserialized state does not give the saved outputs")
                 unit.fmu.freeFMUstate(copy)
