@@ -82,3 +82,21 @@ def edge_time_error(modelica: list, fmu: list) -> float:
     """Largest |time difference| of corresponding edges; the mode sequences must agree."""
     assert [e[1:] for e in modelica] == [e[1:] for e in fmu], (modelica, fmu)
     return max(abs(a[0] - b[0]) for a, b in zip(modelica, fmu))
+
+
+def assert_cart_bench_matches(bench: str, fmu: dict[str, np.ndarray], min_edges: int) -> None:
+    """A Modelica cart bench (tests/modelica/<bench>.mo, 2 s) against the Cart FMU's run of
+    the same case: the same mode sequence with at least `min_edges` changes, edges within
+    1e-6 s (as test_modelica_behaviour), a difference that grows when rumoca's tolerance is
+    loosened (the solver's error, not a model difference), and x within 1e-6 of its range
+    at the FMU's sample times."""
+    tight = simulate(bench, 2.0, 1e-3)
+    error = edge_time_error(modelica_edges(tight, "cart.mode"), fmu_edges(fmu))
+    loose = edge_time_error(modelica_edges(simulate(bench, 2.0, 1e-3, config=LOOSE), "cart.mode"), fmu_edges(fmu))
+    assert len(fmu_edges(fmu)) >= min_edges
+    assert error < 1e-6
+    assert loose > 10 * error
+    grid = np.asarray(tight.time)
+    on_grid = np.isin(np.round(grid, 9), np.round(fmu["time"], 9))
+    x = np.interp(fmu["time"], grid[on_grid], np.asarray(tight["cart.x"])[on_grid])
+    assert np.max(np.abs(x - fmu["x"])) < 1e-6 * np.ptp(fmu["x"])

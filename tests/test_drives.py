@@ -29,7 +29,7 @@ import pytest
 
 import reference_rig as rr
 from fig3 import OMEGA, PARAMETERS as FIG3
-from modelica_runs import LOOSE, edge_time_error, fmu_edges, modelica_edges, simulate
+from modelica_runs import assert_cart_bench_matches, edge_time_error, fmu_edges
 from pendfmu.components import CART, ETA_BACK_FROM_ETA, rig_defaults
 from pendfmu.fitting.stages import COMMAND_FREE
 from pendfmu.simulator import ComponentFMU
@@ -226,18 +226,7 @@ def test_modelica_cart_with_a_lagged_command_matches_the_fmu():
     tau_e = 0.02 s) against the FMU: the same mode sequence, edges within 1e-6 s as the other
     Modelica comparisons, and the difference grows when rumoca's tolerance does. Measured:
     edges 6.2e-11 s (2.1e-9 s at the loose tolerance), x 8.2e-10 of its range."""
-    fmu = fig3_command_run(REFERENCE_CASES["lag and back-EMF"])
-    tight = simulate("CartDrive", 2.0, 1e-3)
-    error = edge_time_error(modelica_edges(tight, "cart.mode"), fmu_edges(fmu))
-    loose = edge_time_error(modelica_edges(simulate("CartDrive", 2.0, 1e-3, config=LOOSE), "cart.mode"),
-                            fmu_edges(fmu))
-    assert len(fmu_edges(fmu)) >= 6
-    assert error < 1e-6
-    assert loose > 10 * error
-    grid = np.asarray(tight.time)
-    on_grid = np.isin(np.round(grid, 9), np.round(fmu["time"], 9))
-    x = np.interp(fmu["time"], grid[on_grid], np.asarray(tight["cart.x"])[on_grid])
-    assert np.max(np.abs(x - fmu["x"])) < 1e-6 * np.ptp(fmu["x"])
+    assert_cart_bench_matches("CartDrive", fig3_command_run(REFERENCE_CASES["lag and back-EMF"]), min_edges=6)
 
 
 # ---------------------------------------------------------------- eta's two roles

@@ -88,13 +88,20 @@ def run_once(name: str, tmp_path_factory) -> tuple[Path, subprocess.CompletedPro
     return _RUNS[name]
 
 
-@pytest.mark.parametrize("name", NAMES)
-def test_run_writes_the_result(tmp_path_factory, name):
+def example_output(name: str, tmp_path_factory):
+    """(the example's convert module, its OUTDIR) after its one run of the session; skipped
+    without the data."""
     convert = rd.load_example(name)
     if not rd.available(*convert.SOURCES):
         pytest.skip(f"real data absent: {', '.join(map(str, convert.SOURCES))}")
-    tmp_path, done = run_once(name, tmp_path_factory)
+    outdir, done = run_once(name, tmp_path_factory)
     assert done.returncode == 0, done.stderr
+    return convert, outdir
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_run_writes_the_result(tmp_path_factory, name):
+    convert, tmp_path = example_output(name, tmp_path_factory)
     document = json.loads((tmp_path / "result.json").read_text())
     fitted = document["interval_method"]
     assert fitted, "no parameter fitted"
@@ -190,11 +197,7 @@ def flat(tree: dict, prefix: str = "") -> dict:
 
 @pytest.fixture(scope="module")
 def carriage_result(tmp_path_factory):
-    convert = rd.load_example(CARRIAGE)
-    if not rd.available(*convert.SOURCES):
-        pytest.skip(f"real data absent: {', '.join(map(str, convert.SOURCES))}")
-    outdir, done = run_once(CARRIAGE, tmp_path_factory)
-    assert done.returncode == 0, done.stderr
+    convert, outdir = example_output(CARRIAGE, tmp_path_factory)
     return convert, json.loads((outdir / "result.json").read_text())
 
 
@@ -257,12 +260,7 @@ FURUTA = "rotary-inverted-pendulum"
 
 @pytest.fixture(scope="module")
 def furuta_result(tmp_path_factory):
-    convert = rd.load_example(FURUTA)
-    if not rd.available(*convert.SOURCES):
-        pytest.skip(f"real data absent: {', '.join(map(str, convert.SOURCES))}")
-    outdir = tmp_path_factory.mktemp(FURUTA)
-    done = run(FURUTA, outdir)
-    assert done.returncode == 0, done.stderr
+    convert, outdir = example_output(FURUTA, tmp_path_factory)
     return convert, json.loads((outdir / "result.json").read_text())
 
 
@@ -316,11 +314,7 @@ CARTPOLE = "physical-cartpole"
 
 @pytest.fixture(scope="module")
 def cartpole(tmp_path_factory):
-    convert = rd.load_example(CARTPOLE)
-    if not rd.available(*convert.SOURCES):
-        pytest.skip(f"real data absent: {', '.join(map(str, convert.SOURCES))}")
-    outdir, done = run_once(CARTPOLE, tmp_path_factory)
-    assert done.returncode == 0, done.stderr
+    convert, outdir = example_output(CARTPOLE, tmp_path_factory)
     return (convert, json.loads((outdir / "result.json").read_text()),
             json.loads((outdir / "pendulum.json").read_text()))
 

@@ -32,7 +32,7 @@ from scipy.optimize import brentq
 import reference_rig as rr
 from fig3 import PARAMETERS as FIG3, force, force_derivatives
 from friction_golden import GOLDEN, fingerprint, golden_runs
-from modelica_runs import LOOSE, TIGHT, at_times, edge_time_error, fmu_edges, modelica_edges, simulate
+from modelica_runs import LOOSE, TIGHT, assert_cart_bench_matches, at_times, edge_time_error, fmu_edges, modelica_edges, simulate
 from pendfmu.components import CART, PENDULUM
 from pendfmu.fmubuild.compiler import FMUS_DIR
 from pendfmu.simulator import ComponentFMU
@@ -217,17 +217,7 @@ def test_modelica_cart_with_extras_matches_the_fmu(case, bench):
     against the Cart FMU: the same mode sequence, edges within the Modelica comparisons'
     1e-6 s (test_modelica_behaviour; measured 1e-10 s at TIGHT), and the difference grows
     when rumoca's tolerance does (the solver's error, not a model difference)."""
-    fmu = fig3_fmu(CASES[case])
-    tight = simulate(bench, 2.0, 1e-3)
-    error = edge_time_error(modelica_edges(tight, "cart.mode"), fmu_edges(fmu))
-    loose = edge_time_error(modelica_edges(simulate(bench, 2.0, 1e-3, config=LOOSE), "cart.mode"), fmu_edges(fmu))
-    assert len(fmu_edges(fmu)) >= 9
-    assert error < 1e-6
-    assert loose > 10 * error
-    grid = np.asarray(tight.time)
-    on_grid = np.isin(np.round(grid, 9), np.round(fmu["time"], 9))
-    x = np.interp(fmu["time"], grid[on_grid], np.asarray(tight["cart.x"])[on_grid])
-    assert np.max(np.abs(x - fmu["x"])) < 1e-6 * np.ptp(fmu["x"])
+    assert_cart_bench_matches(bench, fig3_fmu(CASES[case]), min_edges=9)
 
 
 # ---------------------------------------------------------------- the pendulum's extras
