@@ -200,10 +200,7 @@ def _free(model: Model, name: str, bounds: Mapping[str, tuple[float, float]], va
     if name in bounds:
         low, high = bounds[name]
     elif found and experiments and name not in model.names("parameter"):
-        first = experiments[0]
-        column = found[1]
-        recorded = first.recorded(column) if column in first.recording.signals else None
-        low, high, _ = default_box(name, recorded, first.time)
+        low, high, _ = default_box(name, experiments[0].recording)
     else:
         low, high = _box(model, name, values.get(name))
     log = low > 0 and high / low >= SEARCH_DECADE  # decades apart: searched on the log scale

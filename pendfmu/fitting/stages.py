@@ -360,10 +360,7 @@ def _box(name: str, names: Sequence[str], fix: Sequence[str], bounds: Mapping[st
     if measurement_signal(name) is not None and name not in DEFAULT_BOUNDS:
         if name in bounds:
             return (*bounds[name], False, None)
-        _, column = measurement_signal(name)
-        first = experiments[0]
-        recorded = first.recorded(column) if column in first.recording.signals else None
-        return (*default_box(name, recorded, first.time), None)
+        return (*default_box(name, experiments[0].recording), None)
     low, high, log = DEFAULT_BOUNDS.get(name, (None, None, False))
     prior = values.get(name)
     derived = derived_box(name, values, experiments) if given is not None and name not in given else None

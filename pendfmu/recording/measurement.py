@@ -71,11 +71,13 @@ def sensed(column: str, simulated: np.ndarray, values: Mapping[str, float]) -> n
     return scale * simulated + offset
 
 
-def default_box(name: str, recorded: np.ndarray | None, times: np.ndarray) -> tuple[float, float, bool]:
-    """The search box of a measurement parameter that --bounds does not give, from the data:
-    an offset within a tenth of the signal's range either way, a scale within 20 %, a delay
-    up to ten sample intervals. (low, high, logarithmic)."""
-    kind = measurement_signal(name)[0]
+def default_box(name: str, recording) -> tuple[float, float, bool]:
+    """The search box of a measurement parameter that --bounds does not give, from the
+    recording: an offset within a tenth of its signal's range either way, a scale within
+    20 %, a delay up to ten sample intervals. (low, high, logarithmic)."""
+    kind, column = measurement_signal(name)
+    times = recording.time
+    recorded = recording.signals.get(column)
     if kind == "delay":
         step = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
         return 0.0, 10.0 * step, False
