@@ -3,7 +3,7 @@
 The flow is one-way: recording -> experiment -> simulator -> residuals -> optimizer ->
 result -> report/export. The component FMUs (CurrentLoop, Cart, Pendulum; and Controller, a
 discrete PID controller for systems with a controller in the loop) are built from
-C sources in fmus/ by ``pendfmu build``; their variables are defined once, in
+C sources in pendfmu/csrc/ by ``pendfmu build``; their variables are defined once, in
 :mod:`pendfmu.components`.
 
 The public API (pinned by tests/test_api.py; everything else may change):

@@ -282,7 +282,7 @@ PENDULUM = Component(
     ),
 )
 
-# The Controller's buffers (fmus/Controller/model.c): at most this many samples of delay and
+# The Controller's buffers (pendfmu/csrc/Controller/model.c): at most this many samples of delay and
 # of derivative span n_d. Its store holds them plus a few scalars (model.c checks the size).
 CONTROLLER_MAX_SAMPLES = 100
 # The default saturation: FMI 2 XML cannot write an infinite start value, and the FMUs refuse

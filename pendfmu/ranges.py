@@ -4,7 +4,7 @@ The one home of this rule in Python, so that every check agrees on the ends of a
 says the same thing: parameter files (parameters.py), recordings' sidecars
 (recording/schema.py), SSP systems of the rig (ssp/rig.py), exports (export/plan.py) and
 a user's model (simulator/model.py). The FMUs check the same ranges in C when a parameter
-is set (fmus/framework, ranges generated from the table) and word their refusal the same
+is set (pendfmu/csrc/framework, ranges generated from the table) and word their refusal the same
 way: ``m_c = -1 is outside its physical range (0, inf)``.
 
 A variable here is a row of the component table (components.Variable) or what a model

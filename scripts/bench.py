@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from pendfmu.components import CART
-from pendfmu.fmubuild.compiler import FMUS_DIR, LIBRARY_SUFFIX, compile_library
+from pendfmu.fmubuild.compiler import FMUS_DIR, LIBRARY_SUFFIX, SOURCE_DIR, compile_library
 from pendfmu.simulator.component import ComponentFMU
 from pendfmu.simulator.master import ExternalInput, Master
 from pendfmu.simulator.native import unit_of
@@ -107,7 +107,7 @@ def c_limit(seconds: float, library: ctypes.CDLL) -> float:
 def build_limit(directory: Path) -> ctypes.CDLL:
     source = Path(__file__).with_name("bench_limit.c")
     library = directory / f"bench_limit{LIBRARY_SUFFIX}"
-    compile_library([source], library, [FMUS_DIR / "runner"])
+    compile_library([source], library, [SOURCE_DIR / "runner"])
     from pendfmu.simulator.native import Unit
 
     lib = ctypes.CDLL(str(library))

@@ -1,4 +1,4 @@
-"""The native loop's interface is declared once in C (fmus/runner/runner.h) and mirrored
+"""The native loop's interface is declared once in C (pendfmu/csrc/runner/runner.h) and mirrored
 with ctypes (pendfmu/simulator/native.py): the two must agree on every constant and on
 the place of every field, or the loop reads garbage without a word."""
 
@@ -9,10 +9,10 @@ import os
 import re
 import subprocess
 
-from pendfmu.fmubuild.compiler import FMI_HEADERS, FMUS_DIR
+from pendfmu.fmubuild.compiler import FMI_HEADERS, SOURCE_DIR
 from pendfmu.simulator import native
 
-HEADER = FMUS_DIR / "runner" / "runner.h"
+HEADER = SOURCE_DIR / "runner" / "runner.h"
 STRUCTURES = (native.Unit, native.SystemUnit, native.Link, native.Drive, native.System)
 
 

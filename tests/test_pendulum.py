@@ -110,7 +110,7 @@ def test_explicit_inertia_is_used():
 
 
 def test_gravity_torque_is_exact_along_a_whole_swing():
-    """The FMU evaluates sin and cos of nearby angles from a memo (fmus/framework/trig_memo.h:
+    """The FMU evaluates sin and cos of nearby angles from a memo (pendfmu/csrc/framework/trig_memo.h:
     angle addition with Taylor series of the small difference). Along a large swing, with a
     cart acceleration so that cos matters too, T_A must equal m l (g sin phi - a cos phi)
     by libm's sin and cos to a few rounding errors."""

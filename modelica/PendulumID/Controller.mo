@@ -60,7 +60,7 @@ algorithm
     k := k + 1;
   end when;
   annotation (Documentation(info = "<html>
-<p>The Controller FMU's law (fmus/Controller/model.c) as a sampled Modelica block. At each
+<p>The Controller FMU's law (pendfmu/csrc/Controller/model.c) as a sampled Modelica block. At each
 sample t_k = k T_s (from time 0) it reads r, y and u_ff and computes</p>
 <pre>
   e_k = r_k - y_k,   s_k = -y_k if derivative_on_measurement else e_k

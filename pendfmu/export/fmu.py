@@ -1,6 +1,6 @@
 """Parameterized copies of the component FMUs, without recompiling.
 
-An exported FMU is the built FMU with three changes (``fmus/framework/start.c`` is the
+An exported FMU is the built FMU with three changes (``pendfmu/csrc/framework/start.c`` is the
 binary's side of this contract):
 
 - ``modelDescription.xml`` gets a fresh GUID, the new start values of the given

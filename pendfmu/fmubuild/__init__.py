@@ -10,9 +10,10 @@ from pendfmu.fmubuild.compiler import BuildError, build_fmu, compute_guid, fmu_p
 __all__ = ["BuildError", "build_all", "build_fmu", "compute_guid", "fmu_path", "ensure_fmu"]
 
 
-def build_all(force: bool = False) -> dict[str, Path]:
-    """Build every component FMU that is missing or stale; return their paths by name."""
-    return {name: build_fmu(component, force=force) for name, component in ALL_COMPONENTS.items()}
+def build_all(force: bool = False, folder: Path | None = None) -> dict[str, Path]:
+    """Build every component FMU that is missing or stale in `folder` (default: the FMU
+    folder pendfmu loads from, compiler.fmu_folder); return their paths by name."""
+    return {name: build_fmu(component, force=force, folder=folder) for name, component in ALL_COMPONENTS.items()}
 
 
 def ensure_fmu(name: str) -> Path:

@@ -1,5 +1,10 @@
 """Compile a component FMU from its C sources with the system C compiler and zip it.
 
+The C sources are package data (``pendfmu/csrc``, read through importlib.resources), so an
+installed wheel builds FMUs as a checkout does. Built FMUs go to :func:`fmu_folder`: the
+checkout's ``fmus/`` when pendfmu runs from a source checkout, otherwise a per-version
+folder in the user's cache (``PENDFMU_FMU_DIR`` overrides both).
+
 The FMU holds modelDescription.xml, binaries/linux64/<Name>.so and sources/ (framework,
 model and generated tables in one flat folder, plus buildDescription.xml), so that an
 importer on another platform can compile it. The GUID is a hash of everything that goes
@@ -9,6 +14,7 @@ into the binary: an FMU is rebuilt exactly when that hash changes.
 from __future__ import annotations
 
 import hashlib
+import importlib.resources
 import os
 import shutil
 import subprocess
@@ -19,13 +25,48 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import fmpy
+import platformdirs
 
 from pendfmu import __version__
 from pendfmu.components import Component
 from pendfmu.fmubuild import ctables, description
 
-FMUS_DIR = Path(__file__).resolve().parents[2] / "fmus"
-FRAMEWORK_DIR = FMUS_DIR / "framework"
+
+
+def _source_dir() -> Path:
+    """The C sources' folder inside the installed package. Compilers need real files, so a
+    package imported from a zip archive cannot build FMUs."""
+    folder = Path(str(importlib.resources.files("pendfmu") / "csrc"))
+    if not (folder / "framework").is_dir():
+        raise BuildError(f"pendfmu's C sources are not at {folder}: reinstall pendfmu from a wheel or a checkout "
+                         "(a zipped package cannot build FMUs)")
+    return folder
+
+
+def fmu_folder() -> Path:
+    """Where built FMUs (and the native loop's library) are kept.
+
+    ``$PENDFMU_FMU_DIR`` when set; else ``fmus/`` of the source checkout pendfmu runs from
+    (a folder holding pendfmu's pyproject.toml beside the package), so that a developer
+    finds them where the README says; else the user cache, one folder per pendfmu version,
+    because an installed package's own folder may be read-only and is shared by users.
+    """
+    if os.environ.get("PENDFMU_FMU_DIR"):
+        return Path(os.environ["PENDFMU_FMU_DIR"]).expanduser().resolve()
+    checkout = Path(__file__).resolve().parents[2]
+    pyproject = checkout / "pyproject.toml"
+    if pyproject.is_file() and 'name = "pendfmu"' in pyproject.read_text(errors="replace"):
+        return checkout / "fmus"
+    return Path(platformdirs.user_cache_dir("pendfmu")) / __version__ / "fmus"
+
+
+class BuildError(RuntimeError):
+    """The C compiler rejected a component's sources, or they cannot be found."""
+
+
+SOURCE_DIR = _source_dir()
+FRAMEWORK_DIR = SOURCE_DIR / "framework"
+FMUS_DIR = fmu_folder()  # built FMUs; the sources are in SOURCE_DIR
 FMI_HEADERS = Path(fmpy.__file__).parent / "c-code"
 CFLAGS = ["-std=c99", "-O3", "-flto", "-fPIC", "-fvisibility=hidden", "-ffp-contract=off",
           "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
@@ -33,14 +74,10 @@ PLATFORM = "linux64"
 LIBRARY_SUFFIX = ".so"  # a shared library on PLATFORM
 
 
-class BuildError(RuntimeError):
-    """The C compiler rejected a component's sources."""
-
-
 def _hand_written_sources(component: Component) -> dict[str, str]:
     """File name in sources/ -> text, for the framework and the model."""
     files = {p.name: p.read_text() for p in sorted(FRAMEWORK_DIR.iterdir()) if p.suffix in (".c", ".h")}
-    files["model.c"] = (FMUS_DIR / component.name / "model.c").read_text()
+    files["model.c"] = (SOURCE_DIR / component.name / "model.c").read_text()
     return files
 
 
@@ -55,8 +92,8 @@ def compute_guid(component: Component) -> str:
     return "{" + str(uuid.UUID(digest.hexdigest()[:32])) + "}"
 
 
-def fmu_path(component: Component) -> Path:
-    return FMUS_DIR / f"{component.name}.fmu"
+def fmu_path(component: Component, folder: Path | None = None) -> Path:
+    return (folder or FMUS_DIR) / f"{component.name}.fmu"
 
 
 _DESCRIPTIONS: dict[tuple, object] = {}
@@ -109,9 +146,11 @@ def compile_sources(source_dir: Path, output: Path, compiler: str | None = None)
     compile_library(sorted(str(p) for p in source_dir.glob("*.c")), output, [source_dir], compiler)
 
 
-def build_fmu(component: Component, force: bool = False) -> Path:
-    """Build fmus/<Name>.fmu unless an FMU of the same sources is already there."""
-    target = fmu_path(component)
+def build_fmu(component: Component, force: bool = False, folder: Path | None = None) -> Path:
+    """Build <folder>/<Name>.fmu (default: fmu_folder()) unless an FMU of the same sources
+    is already there."""
+    target = fmu_path(component, folder)
+    target.parent.mkdir(parents=True, exist_ok=True)
     guid = compute_guid(component)
     if not force and target.exists() and built_guid(target) == guid:
         return target

@@ -31,7 +31,7 @@ the holding force, with the pendulum's response to a = 0, within the threshold. 
 own mode logic decides; the master only gives it consistent partners. The rest of the step
 follows as another piece. The held piece's own error is of order jump * EVENT_MARGIN * h.
 
-Both engines implement this: the native one in fmus/runner/runner.c, operation for
+Both engines implement this: the native one in pendfmu/csrc/runner/runner.c, operation for
 operation, so that they stay bit-identical. Change both together.
 """
 

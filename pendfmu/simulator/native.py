@@ -1,6 +1,6 @@
 """The native stepping path: a small C library that runs the communication loop.
 
-It is compiled from fmus/runner/runner.c with the FMUs' toolchain into fmus/build/ (not
+It is compiled from pendfmu/csrc/runner/runner.c with the FMUs' toolchain into the FMU folder's build/ (not
 committed), rebuilt when its source changes, and loaded with ctypes. It calls the fmi2
 functions of an instance that fmpy created, through function pointers taken from fmpy's
 loaded library, so everything about the instance (parameters, logging, errors) stays in
@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.fmubuild.compiler import CFLAGS, FMUS_DIR, LIBRARY_SUFFIX, compile_library
+from pendfmu.fmubuild.compiler import CFLAGS, FMUS_DIR, LIBRARY_SUFFIX, SOURCE_DIR, compile_library
 
-SOURCE = FMUS_DIR / "runner" / "runner.c"
-HEADERS = [FMUS_DIR / "runner" / "runner.h", FMUS_DIR / "runner" / "tear.h"]  # included by runner.c
+SOURCE = SOURCE_DIR / "runner" / "runner.c"
+HEADERS = [SOURCE_DIR / "runner" / "runner.h", SOURCE_DIR / "runner" / "tear.h"]  # included by runner.c
 BUILD_DIR = FMUS_DIR / "build"
 
 # MAX_PORTS, Failure and the Structures (Unit, SystemUnit, Link, Drive, System) mirror

@@ -70,7 +70,7 @@ on a state the FMUs' own mode logic produced, and the fallback where events cann
 located. After a step accepted at a jump the master makes the coupled signals agree at b
 through the FMUs' own mode logic (coupled._settle).
 
-The native engine (fmus/runner/tear.h) implements this class operation for operation,
+The native engine (pendfmu/csrc/runner/tear.h) implements this class operation for operation,
 so that both engines stay bit-identical; change both together.
 """
 

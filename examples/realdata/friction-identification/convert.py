@@ -170,7 +170,7 @@ def published_friction(v: np.ndarray) -> np.ndarray:
 
 def sliding_friction(parameters: dict[str, float], v: np.ndarray) -> np.ndarray:
     """pendfmu's sliding friction F_F [N] of the cart at speeds v != 0 [m/s], from its
-    parameters: the law of fmus/framework/friction.h (friction_force while sliding, in the
+    parameters: the law of pendfmu/csrc/framework/friction.h (friction_force while sliding, in the
     direction d = sgn v), evaluated independently here:
 
         F_F = d (k_fw(d) |v| + F_K(d) + (F_S - F_K(d)) exp(-(v/v_S)^2))

@@ -2,7 +2,7 @@
 
    These FMUs stand for FMUs that pendfmu did not make (a Simulink or OpenModelica export):
    they are written against the FMI 2.0 headers only and share nothing with pendfmu's own
-   framework in fmus/framework/. What they share among themselves is kept to this one
+   framework in pendfmu/csrc/framework/. What they share among themselves is kept to this one
    layer: the instance, the call-order phases, value access by value reference with
    checks, logging, and FMU state copies. Each model file (ForeignCart.c, NoStateCart.c,
    MEOnly.c, Colliding.c) defines one `Model` with its variable table and equations.

@@ -161,7 +161,7 @@ bool solver_initialize(Instance *inst);
 #define MODE (inst->s.i[VR_mode - VR_INTEGER_BASE])
 #define FLAG(name) (inst->s.b[VR_##name - VR_BOOLEAN_BASE])
 
-/* ---- What each component implements (fmus/<Name>/model.c) ---- */
+/* ---- What each component implements (pendfmu/csrc/<Name>/model.c) ---- */
 
 /* Cross-parameter checks beyond the ranges of the variable table. On failure writes a
  * message naming the parameters into `why` and returns false. */
