@@ -19,6 +19,7 @@ from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
 from pendfmu.recording.measurement import is_measurement, measurement_problem
 from pendfmu.recording.schema import SIGNAL_NAMES
+from pendfmu.suggest import did_you_mean
 
 # Initial states set through the sidecar's "initial" block (signal name -> parameter).
 INITIAL_STATE_PARAMETERS = {"x": "x0", "v": "v0", "phi": "phi0", "w": "w0", "I": "I0", "I_mean": "I0"}
@@ -44,7 +45,8 @@ def check_value(name: str, value: object, where: str = "") -> float:
             raise ParameterFileError(f"{prefix}parameter {name} = {value!r}: {problem}")
         return float(value)
     if name not in known:
-        raise ParameterFileError(f"{prefix}unknown parameter {name!r}; valid names: {', '.join(sorted(known))}")
+        raise ParameterFileError(f"{prefix}unknown parameter {name!r}{did_you_mean(name, known)}; valid names: "
+                                 f"{', '.join(sorted(known))}")
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ParameterFileError(f"{prefix}parameter {name} = {value!r} is not a number")
     value = float(value)
@@ -90,7 +92,7 @@ def with_initial_states(values: Mapping[str, float], initial: Mapping[str, float
     result = dict(values)
     for signal, value in initial.items():
         if signal not in INITIAL_STATE_PARAMETERS:
-            raise ParameterFileError(f"{where}: unknown initial state {signal!r}; valid: "
+            raise ParameterFileError(f"{where}: unknown initial state {signal!r}{did_you_mean(signal, INITIAL_STATE_PARAMETERS)}; valid: "
                                      f"{', '.join(INITIAL_STATE_PARAMETERS)}")
         name = INITIAL_STATE_PARAMETERS[signal]
         result[name] = check_value(name, value, where)

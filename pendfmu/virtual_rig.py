@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from pendfmu.components import COMPONENTS, back_drivable, rig_defaults
+from pendfmu.console import progress
 from pendfmu.parameters import write_parameters
 from pendfmu.recording import Recording, SignalInfo, quantize, write_recording
 from pendfmu.simulator.component import ComponentFMU
@@ -42,9 +43,55 @@ RIPPLE = {"a_h": 0.03, "f_h": 2000.0, "phase_h": 0.5}
 TRUTH_SUBSTEPS = 10
 
 
+# The parameters each stage of the paper identifies: what a drawn truth varies.
+STAGE_PARAMETERS = {"current": ("T_i", "dIdt_max", "a_h", "f_h", "phase_h"),
+                    "cart": ("eta", "k_fwc", "F_Kc", "F_Sc"),
+                    "pendulum": ("k_fwp", "T_Kp", "T_Sp")}
+FACTOR = (0.6, 1.6)  # a drawn parameter's factor on the reference value (log-uniform)
+STICTION = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> its Coulomb friction
+MIN_STICTION_RATIO = 1.2
+RELEASE_ANGLE = 0.6  # rad from hanging: the free decay's release
+
+
 def reference_truth() -> dict[str, float]:
     """MODEL.md's reference rig (the table's defaults) with the virtual converter's RIPPLE."""
     return {**rig_defaults(), **RIPPLE}
+
+
+def _log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
+    return float(math.exp(rng.uniform(math.log(low), math.log(high))))
+
+
+def draw_truth(seed: int, index: int = 0) -> tuple[dict[str, float], float]:
+    """A rig unlike the reference one, and a release angle: truth `index` of the series `seed`.
+
+    Every identified parameter (STAGE_PARAMETERS) is its reference value times a factor
+    drawn log-uniformly in FACTOR: log-uniform because the parameters are scales, the fit
+    searches them on a log scale and its errors are relative (a uniform factor would put
+    60 % of the draws above the reference). Stiction is drawn as its Coulomb friction times
+    a ratio, log-uniform within what keeps the stiction itself within FACTOR of its
+    reference and the ratio at least MIN_STICTION_RATIO: near 1 stiction hardly shows (the
+    breakaway is at max(F_S, F_K)), a different, ill-posed question. The release angle of
+    the free decay is RELEASE_ANGLE times a factor in FACTOR, to either side.
+
+    `pendfmu rig --seed N` records truth 0 of series N, so that a fit starting from the
+    reference values has something to find; the coverage benchmark draws many.
+    """
+    rng = np.random.default_rng([seed, index])
+    reference = reference_truth()
+    truth: dict[str, float] = {}
+    for name in (n for names in STAGE_PARAMETERS.values() for n in names):
+        if name in STICTION:
+            coulomb = STICTION[name]
+            ratio_ref = reference[name] / reference[coulomb]
+            scale = reference[coulomb] / truth[coulomb]  # the drawn Coulomb's factor, inverted
+            low = max(MIN_STICTION_RATIO, FACTOR[0] * ratio_ref * scale)
+            high = FACTOR[1] * ratio_ref * scale
+            truth[name] = truth[coulomb] * _log_uniform(rng, low, high)
+        else:
+            truth[name] = reference[name] * _log_uniform(rng, *FACTOR)
+    angle = RELEASE_ANGLE * _log_uniform(rng, *FACTOR) * float(rng.choice([-1.0, 1.0]))
+    return truth, angle
 
 
 def steps(*levels: tuple[float, float]) -> Callable[[float], float]:
@@ -70,8 +117,9 @@ class Experiment:
     description: str = ""
 
 
-def standard_experiments() -> list[Experiment]:
-    """The paper's sequence (MODEL.md, 'The identification experiments')."""
+def standard_experiments(release_angle: float = RELEASE_ANGLE) -> list[Experiment]:
+    """The paper's sequence (MODEL.md, 'The identification experiments'); the free decay
+    starts `release_angle` from hanging."""
     experiments = [
         Experiment("current-steps", "current", 0.022, 20e-6, ("I_c", "I"),
                    steps((0, 0.0), (1e-3, 1.5), (6e-3, 3.0), (11e-3, 0.5), (16e-3, -2.0)),
@@ -86,7 +134,7 @@ def standard_experiments() -> list[Experiment]:
                    lambda t: 0.6 * t, sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"),
                    description="slow current ramp through breakaway, pendulum removed"),
         Experiment("pendulum-decay", "pendulum", 30.0, 2e-4, ("phi",), lambda t: 0.0,
-                   truth_overrides={"phi0": math.pi + 0.6, "w0": 0.0}, known_initial=("w",),
+                   truth_overrides={"phi0": math.pi + release_angle, "w0": 0.0}, known_initial=("w",),
                    description="free damped swing from an unknown release angle, cart still"),
         Experiment("pendulum-stiction", "pendulum", 12.0, 2e-4, ("a", "phi"),
                    lambda t: 0.5 * math.sin(2 * math.pi * t / 4.0),
@@ -181,16 +229,55 @@ def record(experiment: Experiment, truth: Mapping[str, float], sensors: Sensors)
 
 
 def write_experiments(out: str | Path, truth: Mapping[str, float] | None = None, seed: int = 0,
-                      experiments: list[Experiment] | None = None) -> list[Path]:
-    """Write every experiment's recording into `out`, and the truth as truth.json."""
+                      experiments: list[Experiment] | None = None, **about: object) -> list[Path]:
+    """Write every experiment's recording into `out`, and the truth as truth.json (with
+    the noise seed and `about`, e.g. how the truth was chosen)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     values = {**reference_truth(), **(truth or {})}
     sensors = Sensors(values["k_D"], np.random.default_rng(seed))
     paths = []
-    for experiment in experiments or standard_experiments():
+    for experiment in progress(experiments or standard_experiments(), "recording the virtual rig",
+                               label=lambda e: e.name):
         recording = record(experiment, values, sensors)
         paths.append(write_recording(recording, out / f"{experiment.name}.csv"))
-    write_parameters(values, out / "truth.json", seed=seed)
+    write_parameters(values, out / "truth.json", seed=seed, **about)
     paths.append(out / "truth.json")
     return paths
+
+
+@dataclass(frozen=True)
+class TruthRow:
+    """One fitted parameter against the virtual rig's truth."""
+
+    name: str
+    truth: float
+    value: float
+    low: float  # the 95 % interval (or the set a bounded parameter is confined to); nan if none
+    high: float
+    method: str
+
+    @property
+    def holds(self) -> bool:
+        return bool(self.low <= self.truth <= self.high)
+
+
+def against_truth(estimates: Mapping[str, object], truth: Mapping[str, float]) -> list[TruthRow]:
+    """Each estimate of a rig parameter with the truth it should have found. Per-recording
+    estimates (``phi0[pendulum-decay]``) are left out: their truth is the recording's own."""
+    rows = []
+    for name, estimate in estimates.items():
+        if "[" in name or name not in truth:
+            continue
+        low, high = estimate.ci95 if estimate.ci95 else (math.nan, math.nan)
+        rows.append(TruthRow(name, float(truth[name]), float(estimate.value), float(low), float(high),
+                             str(estimate.method)))
+    return rows
+
+
+def read_truth(folder: str | Path) -> dict[str, float] | None:
+    """The truth.json `pendfmu rig` wrote into `folder`, or None when there is none."""
+    from pendfmu.parameters import read_parameters
+
+    path = Path(folder) / "truth.json"
+    return read_parameters(path) if path.is_file() else None

@@ -8,17 +8,8 @@ seed, and fitted by ``pendfmu.fit_all`` from the reference values. Per fitted pa
 the estimate, the truth, its ``ci95`` and flags go to a JSON-lines file as each truth
 completes; the summary is printed at the end (or from the file with ``--tally``).
 
-Truths (``draw_truth``): every fitted parameter is the reference value times a factor
-drawn log-uniformly in [0.6, 1.6] -- log-uniform because the parameters are scales, the
-fit searches them on a log scale and its errors are relative; a uniform factor would
-put 60 % of the draws above the reference. The ripple (a_h, f_h, phase_h) is drawn the
-same way around ``virtual_rig.RIPPLE``. Stiction is drawn as Coulomb friction times a
-ratio, log-uniform within what keeps the stiction itself within x0.6-1.6 of its
-reference and the ratio at least 1.2: at a ratio near 1 stiction has hardly any effect
-(the breakaway is at max(F_S, F_K)), so it would be a different, ill-posed, question.
-(So the stiction's own factor is not log-uniform: its median is 1.2 for the cart, 1.06
-for the pendulum.) The free decay's release angle is 0.6 rad times a factor in [0.6, 1.6],
-to either side. Cached recordings, per truth index and seed:
+Truths: ``pendfmu.virtual_rig.draw_truth`` (its docstring says how they are drawn).
+Cached recordings, per truth index and seed:
 DIR/recordings/{GENERATOR}-seed{S}/truth{K}/.
 
 ``--simulator fmu`` makes the same truths' recordings with the virtual rig's FMUs and
@@ -45,44 +36,15 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 from pendfmu.fitting.sequence import fit_all
-from pendfmu.virtual_rig import RIPPLE, reference_truth, write_experiments
+from pendfmu.virtual_rig import draw_truth, write_experiments
 
 from coverage_tally import STAGE_PARAMETERS, covers, print_summary, read_results
 from reference_recordings import stage_experiments, write_reference_experiments
 
 STAGE_OF_RECORDING = {"current-steps": "current", "cart-startup-2A": "cart", "cart-startup-3A": "cart",
                       "cart-ramp": "cart", "pendulum-decay": "pendulum", "pendulum-stiction": "pendulum"}
-FACTOR = (0.6, 1.6)
-STICTION = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> its Coulomb friction
-MIN_STICTION_RATIO = 1.2
-RELEASE_ANGLE = 0.6  # rad from hanging, the virtual rig's
 GENERATOR = "v1"  # part of the cache path: bump when the recordings change
-
-
-def log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
-    return float(math.exp(rng.uniform(math.log(low), math.log(high))))
-
-
-def draw_truth(seed: int, index: int) -> tuple[dict[str, float], float]:
-    """Truth `index` of the series `seed`: the fitted parameters and the release angle."""
-    rng = np.random.default_rng([seed, index])
-    reference = {**reference_truth(), **RIPPLE}
-    truth = {}
-    for name in (n for names in STAGE_PARAMETERS.values() for n in names):
-        if name in STICTION:
-            coulomb = STICTION[name]
-            ratio_ref = reference[name] / reference[coulomb]
-            scale = reference[coulomb] / truth[coulomb]  # the drawn Coulomb's factor, inverted
-            low = max(MIN_STICTION_RATIO, FACTOR[0] * ratio_ref * scale)
-            high = FACTOR[1] * ratio_ref * scale
-            truth[name] = truth[coulomb] * log_uniform(rng, low, high)
-        else:
-            truth[name] = reference[name] * log_uniform(rng, *FACTOR)
-    angle = RELEASE_ANGLE * log_uniform(rng, *FACTOR) * float(rng.choice([-1.0, 1.0]))
-    return truth, angle
 
 
 def noise_seed(seed: int, index: int) -> int:

@@ -15,9 +15,8 @@ import math
 from pathlib import Path
 from statistics import median
 
-STAGE_PARAMETERS = {"current": ("T_i", "dIdt_max", "a_h", "f_h", "phase_h"),
-                    "cart": ("eta", "k_fwc", "F_Kc", "F_Sc"),
-                    "pendulum": ("k_fwp", "T_Kp", "T_Sp")}
+from pendfmu.virtual_rig import STAGE_PARAMETERS  # the parameters a truth draws
+
 RIG_PARAMETERS = tuple(n for names in STAGE_PARAMETERS.values() for n in names)
 GOAL = {"truths": 30, "overall": 0.90, "each": 0.80, "ratio": 5.0}
 CALIBRATED_RATIO = 1.959963984540054 / 0.6744897501960817

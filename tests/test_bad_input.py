@@ -15,7 +15,7 @@ CASES = {
     "missing file": (None, None, ["nothere.csv"]),
     "empty file": ("", None, ["rec.csv", "empty"]),
     "header only": ("time,I_c\n", None, ["rec.csv", "no data"]),
-    "no time column": ("t,I_c\n0,0\n0.001,1\n", None, ["rec.csv", "time"]),
+    "no time column": ("seconds,I_c\n0,0\n0.001,1\n", None, ["rec.csv", "time"]),
     "non-numeric cell": ("time,I_c\n0.0,0.0\n0.001,one\n", None, ["rec.csv", "line 3", "I_c", "'one'"]),
     "NaN in a signal": ("time,I_c\n0.0,0.0\n0.001,nan\n", None, ["rec.csv", "I_c", "line 3"]),
     "Inf in a signal": ("time,I_c\n0.0,0.0\n0.001,inf\n", None, ["rec.csv", "I_c", "line 3"]),

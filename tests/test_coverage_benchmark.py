@@ -135,7 +135,7 @@ def test_sidecars_and_sensor_readings_are_the_virtual_rigs(folders):
 
 
 def test_truths_stay_within_the_issues_factors_with_stiction_above_coulomb():
-    reference = {**reference_truth(), **BENCHMARK.RIPPLE}
+    reference = reference_truth()
     for index in range(200):
         truth, angle = BENCHMARK.draw_truth(1, index)
         for name, value in truth.items():

@@ -163,8 +163,10 @@ def test_time_column_not_first_is_named(tmp_path):
     assert "'time' is column 2, it must be the first" in message
 
 
-def test_semicolon_separator_gets_a_hint(tmp_path):
-    assert "separator must be a comma and line 1 has none" in error_of(write_csv(tmp_path, "time;x\n0;1\n"))
+def test_space_separated_header_gets_a_hint(tmp_path):
+    """Semicolons and tabs are read (tests/test_cli_conventions.py); spaces are not a separator."""
+    assert "cells must be separated by commas, semicolons or tabs and line 1 has none" in \
+        error_of(write_csv(tmp_path, "time x\n0 1\n"))
 
 
 def test_non_numeric_cell_names_line_and_column(tmp_path):
@@ -529,4 +531,4 @@ def test_real_scope_csv_is_refused_with_its_header():
     """An oscilloscope export: space separated, two header lines ('x-axis 1', units), no 'time'."""
     message = error_of(KORD)
     assert message.startswith(f"{KORD}: line 1: the first column must be 'time', found 'x-axis 1'; "
-                              f"the separator must be a comma and line 1 has none")
+                              f"cells must be separated by commas, semicolons or tabs and line 1 has none")

@@ -14,24 +14,42 @@ import sys
 import traceback
 from collections.abc import Sequence
 
+from pendfmu import __version__
 from pendfmu.cli import build, check, demo, export, fit, rig, simulate, system
+from pendfmu.cli.argv import untangle
 from pendfmu.errors import EXIT_BAD_INPUT, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, FMUError, Suspicious
+from pendfmu.suggest import did_you_mean
 
 SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export,
                "system": system, "check": check}
 
 
+# Words a subcommand takes as positionals, so that a list option before them stops there
+# (cli/argv.py): `fit cart --fix eta rec.csv` keeps rec.csv a recording.
+POSITIONAL_WORDS = {"fit": fit.STAGE_NAMES}
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse exits with 2 on bad usage already; keep its message to one line."""
+    """argparse exits with 2 on bad usage already; keep its message to one line, and
+    answer a mistyped subcommand with the nearest one."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)  # `--fre` is a typo to answer, not `--free`: abbreviations break
+        super().__init__(*args, **kwargs)         # scripts whenever an option with the same prefix is added
 
     def error(self, message: str):  # noqa: D102
+        if "invalid choice: " in message and self._subparsers is not None:
+            word = message.split("invalid choice: ", 1)[1].split(" (choose from", 1)[0].strip("'")
+            message = f"{word!r} is not a command{did_you_mean(word, SUBCOMMANDS)}; commands: {', '.join(SUBCOMMANDS)}"
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="pendfmu", description="Identify an inverted-pendulum rig with FMI component FMUs.")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal failures")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    parser.add_argument("--version", action="version", version=f"pendfmu {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of internal failures (anywhere on the "
+                                                              "command line)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, module in SUBCOMMANDS.items():
         command = sub.add_parser(name, help=module.HELP, description=module.__doc__)
         module.add_arguments(command)
@@ -39,8 +57,36 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _unknown_options(extras: list[str], parser: argparse.ArgumentParser, command: str) -> str:
+    """argparse's "unrecognized arguments", with the nearest option of the command."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[command]
+    known = [flag for action in sub._actions for flag in action.option_strings]
+    first = extras[0].split("=", 1)[0]
+    hint = did_you_mean(first, known) if first.startswith("-") else ""
+    return f"pendfmu {command}: error: unrecognized arguments: {' '.join(extras)}{hint}\n"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    flags, words = untangle(sys.argv[1:] if argv is None else argv, parser, POSITIONAL_WORDS)
+    if not [w for w in words if w not in ("-h", "--help", "--version")] and not ({"-h", "--help", "--version"} & set(words)):
+        parser.print_help()  # bare `pendfmu`: what it can do, not an error
+        return 0
+    command = next((w for w in words if not w.startswith("-")), None)
+    if command in SUBCOMMANDS:  # an unknown option first: a typo explains a "required" error that follows it
+        known = {f for a in parser._subparsers._group_actions[0].choices[command]._actions for f in a.option_strings}
+        known |= {f for a in parser._actions for f in a.option_strings}
+        cut = words.index("--") if "--" in words else len(words)
+        unknown = [w for w in words[:cut] if w.startswith("--") and w.split("=", 1)[0] not in known]
+        if unknown:
+            parser.exit(2, _unknown_options(unknown, parser, command))
+    args, extras = parser.parse_known_args(words)
+    if extras:
+        parser.exit(2, _unknown_options(extras, parser, args.command) if args.command else
+                    f"pendfmu: error: unrecognized arguments: {' '.join(extras)}\n")
+    if args.command is None:
+        parser.error(f"give a command: {', '.join(SUBCOMMANDS)}")
+    args.debug = args.debug or "--debug" in flags
     try:
         return args.run(args) or 0
     except BadInput as error:

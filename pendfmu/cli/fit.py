@@ -177,6 +177,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"{args.out}: {_summary(result)}")
     for line in _details(result):
         print(line)
+    if args.stage == "all":
+        for line in _truth_lines(Path(args.recordings[0]), result):
+            print(line)
     if args.report:
         print(f"report: {result.write_report(args.report)}")
     late = [w for w in result.warnings if not any(w.endswith(p) for p in printed)]
@@ -246,6 +249,21 @@ def _summary(result) -> str:
         else:
             parts.append(f"{label} = {estimate.value:.6g}, 95 % {interval_text(*estimate.ci95)} ({estimate.method})")
     return "wrote the result; estimates:\n  " + "\n  ".join(parts)
+
+
+def _truth_lines(folder, result=None) -> list[str]:
+    """A virtual rig's folder holds truth.json: show what the fit found against it."""
+    from pendfmu.virtual_rig import against_truth, read_truth
+
+    truth = read_truth(folder)
+    if truth is None or result is None:
+        return []
+    rows = against_truth(result.estimates, truth)
+    lines = [f"against {folder / 'truth.json'} (a virtual rig's truth):"]
+    lines += [f"  {r.name:<10} truth {r.truth:<12.6g} found {r.value:<12.6g} ({r.value / r.truth - 1:+.2%}) "
+              f"{'inside' if r.holds else 'OUTSIDE'} its 95 % interval" for r in rows]
+    lines.append(f"  {sum(r.holds for r in rows)} of {len(rows)} intervals hold the truth")
+    return lines
 
 
 def _details(result) -> list[str]:

@@ -30,6 +30,7 @@ from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.recording import Recording, read_recording
 from pendfmu.recording.measurement import default_box, is_measurement, measurement_problem, measurement_signal
 from pendfmu.simulator.model import Model, ModelError
+from pendfmu.suggest import did_you_mean
 
 SEARCH_DECADE = 10.0
 
@@ -173,8 +174,8 @@ def model_free_parameters(model: Model, free: Sequence[str], fix: Sequence[str],
     valid = [n for n in free if n not in fix] + [n for n in dict.fromkeys(own) if n not in fix]
     unknown = [name for name in bounds if name not in valid]
     if unknown:
-        raise BadInput(f"bounds for {unknown[0]!r}, which this fit does not estimate; its free parameters: "
-                       f"{', '.join(valid)}")
+        raise BadInput(f"bounds for {unknown[0]!r}, which this fit does not estimate{did_you_mean(unknown[0], valid)}; "
+                       f"its free parameters: {', '.join(valid)}")
     result = []
     for name in free:
         if name in fix or name in own:
@@ -191,6 +192,8 @@ def model_free_parameters(model: Model, free: Sequence[str], fix: Sequence[str],
             else:
                 low, high = through_sensor(experiment, name, low, high, shared)
             result.append(FreeParameter(name, float(low), float(high), False, experiment.name))
+    if not result:
+        raise BadInput(f"--fix {' '.join(fix)} leaves nothing of {model.name} to fit (free: {', '.join(free)})")
     return result
 
 

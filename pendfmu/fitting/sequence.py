@@ -54,6 +54,21 @@ def sort_folder(folder: str | Path) -> dict[str | None, list[Recording]]:
     return groups
 
 
+def skipped_in_folder(folder: str | Path, groups: Mapping[str | None, list[Recording]]) -> list[str]:
+    """What `fit all` leaves out of a folder, said in words: the stages with no recording
+    and the files it does not read (anything but recordings and their sidecars)."""
+    folder = Path(folder)
+    stems = {p.stem for p in folder.iterdir() if p.suffix.lower() in (".csv", ".mat")}
+    others = sorted(p.name for p in folder.iterdir() if p.is_file() and p.suffix.lower() not in (".csv", ".mat")
+                    and not (p.suffix.lower() == ".json" and p.stem in stems))
+    needs = {"current": "I_c and I without x or phi", "cart": "x without phi", "pendulum": "phi without x"}
+    lines = [f"skipped stage {stage}: no recording with {needs[stage]}" for stage in ("current", "cart", "pendulum")
+             if not groups.get(stage)]
+    if others:
+        lines.append(f"not read (not a recording or its sidecar): {', '.join(others)}")
+    return lines
+
+
 def check_recordings(stage: str, recordings: Sequence[str | Path | Recording],
                      params: Mapping[str, float] | None = None, drive: str | None = None) -> list[str]:
     """The plausibility warnings of a stage's recordings (plausibility.py), without fitting."""
@@ -77,6 +92,9 @@ def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed:
             warn(warning)
     if strict and data_warnings:
         raise SuspiciousData(data_warnings)
+    skipped = skipped_in_folder(folder, groups)
+    for line in skipped:
+        print(f"fit all: {line}", flush=True)
     values = dict(params or {})
     results = []
     upstream: list[dict[str, float]] = []  # per bootstrap replicate, every earlier stage's values
@@ -90,7 +108,9 @@ def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed:
             upstream = [{**(upstream[b] if upstream else {}), **replicate}
                         for b, replicate in enumerate(result.replicates)] or upstream
             results.append(result)
-    return _combine(results, values, groups.get(None, []))
+    combined = _combine(results, values, groups.get(None, []))
+    combined.notes.extend(skipped)
+    return combined
 
 
 def predict(parameters: Mapping[str, float], recordings: Sequence[Recording]) -> dict[str, dict[str, float]]:

@@ -33,6 +33,7 @@ from pendfmu.recording import Recording, RecordingError
 from pendfmu.recording.measurement import default_box, is_measurement, measurement_signal
 from pendfmu.simulator.graph import Connection
 from pendfmu.simulator.model import Model
+from pendfmu.suggest import did_you_mean
 
 
 @dataclass(frozen=True)
@@ -322,13 +323,14 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
         if not known:
             raise ParameterFileError(f"stage {stage} fits parameters of {spec.component} and the sensors' offset, "
                                      f"scale and delay (e.g. {spec.fitted[0]}_offset, input_delay); {name!r} is not "
-                                     f"one (valid: {', '.join(n for n in component.parameters if n != 'solver_step')})")
+                                     f"one{did_you_mean(name, component.parameters)} (valid: "
+                                     f"{', '.join(n for n in component.parameters if n != 'solver_step')})")
     names = [n for n in names if n not in per_recording]
     valid = [n for n in names if n not in fix] + sorted(per_recording - set(fix))
     for name in bounds:
         if name not in valid:
-            raise ParameterFileError(f"bounds for {name!r}, which this fit does not estimate; its free "
-                                     f"parameters: {', '.join(valid) or 'none'}")
+            raise ParameterFileError(f"bounds for {name!r}, which this fit does not estimate"
+                                     f"{did_you_mean(name, valid)}; its free parameters: {', '.join(valid) or 'none'}")
     result = []
     for name in names:
         if name in fix:
@@ -350,6 +352,9 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
                 low, high = through_sensor(experiment, name, low, high, shared)
                 log = False
             result.append(FreeParameter(name, float(low), float(high), log, experiment.name))
+    if not result:
+        raise ParameterFileError(f"stage {stage}: --fix {' '.join(fix)} leaves nothing to fit; its free parameters "
+                                 f"would be {', '.join(names)}")
     return result
 
 

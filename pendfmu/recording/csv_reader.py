@@ -24,6 +24,13 @@ message is the careful reader's.
   ``\r\n``) is parsed by numpy's loadtxt in C, 5x faster than cell by cell; its numbers
   are Python's own (loadtxt strips the same whitespace and calls PyOS_string_to_double,
   the function behind float()).
+
+Files from spreadsheets in many European locales separate cells with ``;`` (or a tab)
+and write decimal commas (``0,5``): when line 1 has a semicolon or a tab and no comma,
+that is the separator, and a comma in a cell is its decimal mark; such files take the
+careful reader. The time column may be spelled as tools write it: ``time``, ``t``,
+``Time``, ``time [s]``, ``t (s)``, ``time/s``, ``time_s`` (TIME_NAMES); another unit is
+refused with a message rather than read as seconds.
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ from __future__ import annotations
 import codecs
 import csv
 import io
+import re
 from array import array
 from pathlib import Path
 
@@ -57,9 +65,28 @@ the blanks that JSON, loadtxt and float() all skip. Kept apart because the minus
 are counted (see _json_table)."""
 
 
+TIME_NAMES = re.compile(r"^(t|time)\s*(\[\s*s\s*\]|\(\s*s\s*\)|/\s*s|_s)?$", re.IGNORECASE)
+"""The first column's spellings read as time in seconds."""
+TIME_OTHER_UNIT = re.compile(r"^(t|time)\s*(\[\s*(\w+)\s*\]|\(\s*(\w+)\s*\)|/\s*(\w+))$", re.IGNORECASE)
+
+
+def _separator(path: Path) -> str:
+    """The cell separator, from line 1: a comma unless the line has none and has a
+    semicolon (or else a tab). Unreadable files get the comma: the readers say why."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace", newline="") as handle:
+            first = handle.readline()
+    except OSError:
+        return ","
+    if "," in first:
+        return ","
+    return ";" if ";" in first else "\t" if "\t" in first else ","
+
+
 def _read_csv(path: Path, sidecar: _Sidecar) -> Recording:
     """Read a CSV recording: the fast path for a plain file, else cell by cell."""
-    parsed = _parse_plain(path, sidecar) or _parse_cells(path, sidecar)
+    separator = _separator(path)
+    parsed = (_parse_plain(path, sidecar) if separator == "," else None) or _parse_cells(path, sidecar, separator)
     time, signals, ignored = parsed
     where = _csv_line_locator
     src = str(path)
@@ -179,17 +206,18 @@ def _plain_columns(table: np.ndarray, header: list[str], keep: list[str], ignore
     return table[:, 0].copy(), signals, ignored
 
 
-def _parse_cells(path: Path, sidecar: _Sidecar):
+def _parse_cells(path: Path, sidecar: _Sidecar, separator: str = ","):
     """(time, signals, ignored): the CSV parsed cell by cell with Python's float() into
-    one flat array of doubles, so memory stays near 8 bytes per cell."""
+    one flat array of doubles, so memory stays near 8 bytes per cell. With a separator
+    other than the comma, a comma in a cell is a decimal mark."""
     src = str(path)
     try:
         with open(path, newline="", encoding="utf-8-sig") as handle:
-            reader = csv.reader(handle)
+            reader = csv.reader(handle, delimiter=separator)
             header = _csv_header(reader, src)
             keep, ignored = _select_columns(header[1:], sidecar, src, "column")
             columns = [0] + [1 + header[1:].index(name) for name in keep]
-            data, rows = _csv_rows(reader, header, columns, src)
+            data, rows = _csv_rows(reader, header, columns, src, decimal_comma=separator != ",")
     except UnicodeDecodeError as exc:
         raise RecordingError(f"{src}: not UTF-8 text (byte {exc.start}); save the CSV as UTF-8") from None
     except csv.Error as exc:
@@ -212,12 +240,19 @@ def _csv_header(reader, src: str) -> list[str]:
         if all(not any(cell.strip() for cell in row) for row in reader):
             raise RecordingError(f"{src}: empty file")
         raise RecordingError(f"{src}: line 1 is empty; the first line must be the header (time, signal names)")
+    other_unit = TIME_OTHER_UNIT.match(names[0])
+    if TIME_NAMES.match(names[0]):
+        names[0] = "time"
+    elif other_unit:
+        unit = next(u for u in other_unit.groups()[2:] if u)
+        raise RecordingError(f"{src}: line 1: the time column {names[0]!r} is in {unit!r}; pendfmu reads time in "
+                             f"seconds: convert it, or name the column 'time' if it is in seconds")
     if names[0] != "time":
         hint = ""
         if names[0].startswith("#"):
             hint = "; comment lines are not supported, the header must be line 1"
-        elif len(names) == 1 and any(sep in names[0] for sep in "; \t"):
-            hint = "; the separator must be a comma and line 1 has none"
+        elif len(names) == 1 and " " in names[0]:
+            hint = "; cells must be separated by commas, semicolons or tabs and line 1 has none"
         elif "time" in names:
             hint = f"; 'time' is column {names.index('time') + 1}, it must be the first"
         listing = f" (header: {', '.join(names)})" if len(names) > 1 else ""
@@ -233,7 +268,8 @@ def _csv_header(reader, src: str) -> list[str]:
     return names
 
 
-def _csv_rows(reader, header: list[str], columns: list[int], src: str) -> tuple[array, int]:
+def _csv_rows(reader, header: list[str], columns: list[int], src: str,
+              decimal_comma: bool = False) -> tuple[array, int]:
     """All data rows, the kept columns converted to float, as one flat array."""
     data = array("d")
     width = len(header)
@@ -249,6 +285,8 @@ def _csv_rows(reader, header: list[str], columns: list[int], src: str) -> tuple[
         if len(row) != width:
             raise RecordingError(f"{src}: line {reader.line_num} has {len(row)} cells, the header has {width}")
         cells = row if everything else [row[i] for i in columns]
+        if decimal_comma:
+            cells = [cell.replace(",", ".") for cell in cells]
         try:
             data.extend(map(float, cells))
         except ValueError:

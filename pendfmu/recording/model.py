@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.recording.schema import RIG, RecordingError, Vocabulary, _checked_values, _missing_problem, _noise_problem, _quantizer_problem, _resolution_problem, _suggest
+from pendfmu.recording.schema import RIG, RecordingError, Vocabulary, _checked_values, _missing_problem, _noise_problem, _quantizer_problem, _resolution_problem
+from pendfmu.suggest import did_you_mean
 
 
 @dataclass(frozen=True)
@@ -72,7 +73,7 @@ class Recording:
         for name, values in dict(self.signals).items():
             known = self.vocabulary.signals
             if name not in known:
-                raise RecordingError(f"{src}: {name!r} is not a signal name{_suggest(name, known)}; "
+                raise RecordingError(f"{src}: {name!r} is not a signal name{did_you_mean(name, known)}; "
                                      f"valid: {', '.join(known)}")
             values = _as_vector(values, src, repr(name))
             _check_length(values, time, src, repr(name))
@@ -143,7 +144,7 @@ class Recording:
         if name not in self.signals:
             known = self.vocabulary.signals
             hint = "" if name in known else (
-                f"; {name!r} is not a signal name either{_suggest(name, known)} "
+                f"; {name!r} is not a signal name either{did_you_mean(name, known)} "
                 f"(valid: {', '.join(known)})")
             raise RecordingError(f"{self.source}: no column {name!r} (columns: time, {', '.join(self.signals)}){hint}")
         return self.signals[name]

@@ -3,7 +3,6 @@ tables), the sidecar's keys, and the checks of single values, with their message
 
 from __future__ import annotations
 
-import difflib
 import math
 import numbers
 from collections.abc import Callable, Mapping
@@ -13,6 +12,7 @@ from pendfmu.components import COMPONENTS, parameter_table
 from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
 from pendfmu.recording.measurement import is_measurement, measurement_problem
+from pendfmu.suggest import did_you_mean
 
 
 def _signal_names() -> tuple[str, ...]:
@@ -103,7 +103,7 @@ def _parameter_problem(name: str, value: float) -> str | None:
     if is_measurement(name, SIGNAL_NAMES):
         return measurement_problem(name, value)
     if name not in PARAMETER_NAMES:
-        return f"unknown parameter{_suggest(name, PARAMETER_NAMES)}; valid: {', '.join(PARAMETER_NAMES)}"
+        return f"unknown parameter{did_you_mean(name, PARAMETER_NAMES)}; valid: {', '.join(PARAMETER_NAMES)}"
     if not math.isfinite(value):
         return f"must be finite, got {value!r}"
     return outside(name, value, [c.parameters[name] for c in COMPONENTS.values() if name in c.parameters])
@@ -112,7 +112,7 @@ def _parameter_problem(name: str, value: float) -> str | None:
 def _initial_problem(name: str, value: float) -> str | None:
     """Why `value` cannot be the known initial value of `name`, or None."""
     if name not in INITIAL_NAMES:
-        return f"not a state{_suggest(name, INITIAL_NAMES)}; valid: {', '.join(INITIAL_NAMES)}"
+        return f"not a state{did_you_mean(name, INITIAL_NAMES)}; valid: {', '.join(INITIAL_NAMES)}"
     if not math.isfinite(value):
         return f"must be finite, got {value!r}"
     return None
@@ -148,15 +148,6 @@ def _quantizer_problem(quantizer) -> str | None:
     if quantizer not in QUANTIZERS:
         return f"quantizer must be one of {', '.join(QUANTIZERS)}, got {quantizer!r}"
     return None
-
-
-def _suggest(name: str, valid) -> str:
-    """' (did you mean 'phi'?)' for a near miss, case first: typos are the usual cause."""
-    for candidate in valid:
-        if candidate.lower() == str(name).lower():
-            return f" (did you mean {candidate!r}?)"
-    close = difflib.get_close_matches(str(name), list(valid), n=1, cutoff=0.75)
-    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def _bytes(size: int) -> str:

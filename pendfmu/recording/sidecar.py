@@ -10,8 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.recording.schema import RIG, RecordingError, SIDECAR_KEYS, SIGNAL_INFO_KEYS, Vocabulary, _missing_problem, _noise_problem, _quantizer_problem, _resolution_problem, _suggest
+from pendfmu.recording.schema import RIG, RecordingError, SIDECAR_KEYS, SIGNAL_INFO_KEYS, Vocabulary, _missing_problem, _noise_problem, _quantizer_problem, _resolution_problem
 from pendfmu.recording.model import Recording, SignalInfo
+from pendfmu.suggest import did_you_mean
 
 
 @dataclass
@@ -70,7 +71,7 @@ def _check_keys(document: dict, valid, src: str, under: str = "") -> None:
     for key in document:
         if key not in valid:
             where = f"{under}.{key}: unknown key" if under else f"unknown key {key!r}"
-            raise RecordingError(f"{src}: {where}{_suggest(key, valid)}; valid: {', '.join(valid)}")
+            raise RecordingError(f"{src}: {where}{did_you_mean(key, valid)}; valid: {', '.join(valid)}")
 
 
 def _read_signal_entry(sidecar: _Sidecar, name: str, entry, src: str) -> None:
@@ -89,7 +90,7 @@ def _read_signal_entry(sidecar: _Sidecar, name: str, entry, src: str) -> None:
         return
     known = sidecar.vocabulary.signals
     if name not in known:
-        raise RecordingError(f"{src}: {key}: unknown signal {name!r}{_suggest(name, known)}; valid: "
+        raise RecordingError(f"{src}: {key}: unknown signal {name!r}{did_you_mean(name, known)}; valid: "
                              f"{', '.join(known)} (or mark an extra column with \"ignore\": true)")
     resolution = _optional_number(entry, "resolution", _resolution_problem, f"{src}: {key}")
     quantizer = entry.get("quantizer", "round")
@@ -184,7 +185,7 @@ def _select_columns(names: list[str], sidecar: _Sidecar, src: str, noun: str) ->
         else:
             known = sidecar.vocabulary.signals
             sidecar_name = sidecar.path or Path(src).with_suffix(".json")
-            raise RecordingError(f"{src}: {noun} {name!r} is not a signal name{_suggest(name, known)}; "
+            raise RecordingError(f"{src}: {noun} {name!r} is not a signal name{did_you_mean(name, known)}; "
                                  f"valid: {', '.join(known)}; to keep it out, mark it in {sidecar_name}: "
                                  f"\"signals\": {{\"{name}\": {{\"ignore\": true}}}}")
     if not keep:

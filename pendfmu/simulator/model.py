@@ -25,6 +25,7 @@ from pendfmu.ranges import outside
 from pendfmu.recording.schema import Vocabulary, WithMeasurements
 from pendfmu.simulator.component import once_per_process, unpacked_fmu
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
+from pendfmu.suggest import did_you_mean
 
 
 class ModelError(BadInput):
@@ -171,7 +172,7 @@ class Model:
         found = self._names[causality].get(name)
         if found is None:
             valid = ", ".join(n for n in self._names[causality] if "." not in n or self._ambiguous(n, causality))
-            raise ModelError(f"{self.name}: no {_NOUN[causality]} {name!r}{_suggestion(name, self._names[causality])}; "
+            raise ModelError(f"{self.name}: no {_NOUN[causality]} {name!r}{did_you_mean(name, self._names[causality])}; "
                              f"valid: {valid or 'none'}")
         if not found:
             qualified = [n for n in self._names[causality] if n.endswith(f".{name}")]
@@ -266,11 +267,6 @@ class _KnownNames:
         return None if math.isfinite(value) else f"must be finite, got {value!r}"
 
 
-def _suggestion(name: str, known: Iterable[str]) -> str:
-    import difflib
-
-    close = difflib.get_close_matches(name, list(known), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def _boolean(value) -> float | None:
