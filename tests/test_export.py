@@ -63,7 +63,7 @@ def expected_starts(name: str) -> dict[str, float]:
 def test_writes_three_fmus_the_ssv_and_the_modelica_text(exported):
     out, paths = exported
     assert [p.name for p in paths] == ["CurrentLoop.fmu", "Cart.fmu", "Pendulum.fmu", "parameters.ssv",
-                                       "modifiers.mo"]
+                                       "modifiers.mo", "set_parameters.m", "parameters.mat"]
     assert all(p.parent == out and p.is_file() for p in paths)
     assert not list(out.glob(".*.part"))
 
@@ -346,8 +346,9 @@ def test_cli_writes_the_files(tmp_path, capsys):
     params = write_params(tmp_path / "P.json", {"k_fwc": 25.0, "T_Kp": 1e-3})
     out = tmp_path / "out"
     assert main(["export", "--params", str(params), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["Cart.fmu", "Pendulum.fmu", "modifiers.mo", "parameters.ssv"]
-    assert capsys.readouterr().out.count("wrote ") == 4
+    assert sorted(p.name for p in out.iterdir()) == ["Cart.fmu", "Pendulum.fmu", "modifiers.mo", "parameters.mat",
+                                                     "parameters.ssv", "set_parameters.m"]
+    assert capsys.readouterr().out.count("wrote ") == 6
     assert "P.json" in read_model_description(str(out / "Cart.fmu")).description
 
 
