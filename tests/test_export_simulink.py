@@ -272,6 +272,17 @@ def test_nothing_found_is_an_error_saying_how_to_name_the_blocks(exported, mocks
 
 
 @needs_octave
+def test_no_current_system_and_an_unknown_system_are_named(exported, mocks, tmp_path):
+    no_model = ["PENDFMU_MOCK.system = '';"]  # what gcs gives when no model is open
+    calls, error, _ = run_octave(mocks, tmp_path, no_model, "set_parameters('Cart', 'rig/Cart')", [exported])
+    assert calls == []
+    assert "CurrentLoop: no current system to look in (gcs is empty)" in error
+    assert "Cart (rig/Cart): no such block" in error
+    calls, error, _ = run_octave(mocks, tmp_path, [], "set_parameters('system', 'other')", [exported])
+    assert "no block of this export in 'other'" in error
+
+
+@needs_octave
 def test_octave_reads_the_mat_file_to_the_same_doubles(exported, mocks, tmp_path):
     prints = "; ".join(f"fprintf('V|{c}|{p}|%.17g\\n', S.{c}.{p})" for c in COMPONENTS for p in COMPONENTS[c].parameters)
     after = (f"S = load({q(str(exported / 'parameters.mat'))}); {prints}; "

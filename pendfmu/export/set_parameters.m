@@ -147,7 +147,18 @@ if ~isempty(given)
     blk = options.paths{given};
     return
 end
-named = find_system(options.system, 'SearchDepth', 1, 'Name', c.component);
+if isempty(options.system)
+    problem = sprintf(['no current system to look in (gcs is empty): open the model, or pass ''system'' ' ...
+                       'or the block: set_parameters(''%s'', PATH)'], c.component);
+    return
+end
+try
+    named = find_system(options.system, 'SearchDepth', 1, 'Name', c.component);
+    fmu_blocks = find_system(options.system, 'SearchDepth', 1, 'BlockType', 'FMU');
+catch err
+    problem = sprintf('cannot look in system ''%s'' (%s)', options.system, err.message);
+    return
+end
 named = named(~strcmp(named, options.system));
 if numel(named) == 1
     blk = named{1};
@@ -155,7 +166,6 @@ if numel(named) == 1
 end
 [~, stem] = fileparts(c.fmu);
 loading = {};
-fmu_blocks = find_system(options.system, 'SearchDepth', 1, 'BlockType', 'FMU');
 for i = 1:numel(fmu_blocks)
     [~, name] = fileparts(get_param(fmu_blocks{i}, 'FMUName'));
     if strcmp(name, stem)
