@@ -182,7 +182,7 @@ def test_m_p_zero_exports_the_cart_and_leaves_out_the_pendulum(tmp_path):
     assert list(plan.components) == ["Cart"]
     assert "Pendulum" in plan.skipped and "(0.0, inf)" in plan.skipped["Pendulum"]
     paths = export_all({"m_p": 0.0, "k_fwc": 20.0, "v0": 0.3}, tmp_path)
-    assert [p.name for p in paths] == ["Cart.fmu", "parameters.ssv", "modifiers.mo"]
+    assert [p.name for p in paths] == ["Cart.fmu", "parameters.ssv", "modifiers.mo", "set_parameters.m", "parameters.mat"]
     result = simulate_fmu(str(paths[0]), stop_time=0.1, output_interval=1e-3, output=["v"])
     assert result["v"][0] == 0.3 and result["v"][-1] == 0.0
     assert "IdentifiedCartStartStop" in (tmp_path / "modifiers.mo").read_text()
