@@ -63,7 +63,7 @@ def expected_starts(name: str) -> dict[str, float]:
 def test_writes_three_fmus_the_ssv_and_the_modelica_text(exported):
     out, paths = exported
     assert [p.name for p in paths] == ["CurrentLoop.fmu", "Cart.fmu", "Pendulum.fmu", "parameters.ssv",
-                                       "modifiers.mo"]
+                                       "modifiers.mo", "set_parameters.m", "parameters.mat"]
     assert all(p.parent == out and p.is_file() for p in paths)
     assert not list(out.glob(".*.part"))
 
@@ -182,7 +182,7 @@ def test_m_p_zero_exports_the_cart_and_leaves_out_the_pendulum(tmp_path):
     assert list(plan.components) == ["Cart"]
     assert "Pendulum" in plan.skipped and "(0.0, inf)" in plan.skipped["Pendulum"]
     paths = export_all({"m_p": 0.0, "k_fwc": 20.0, "v0": 0.3}, tmp_path)
-    assert [p.name for p in paths] == ["Cart.fmu", "parameters.ssv", "modifiers.mo"]
+    assert [p.name for p in paths] == ["Cart.fmu", "parameters.ssv", "modifiers.mo", "set_parameters.m", "parameters.mat"]
     result = simulate_fmu(str(paths[0]), stop_time=0.1, output_interval=1e-3, output=["v"])
     assert result["v"][0] == 0.3 and result["v"][-1] == 0.0
     assert "IdentifiedCartStartStop" in (tmp_path / "modifiers.mo").read_text()
@@ -346,8 +346,9 @@ def test_cli_writes_the_files(tmp_path, capsys):
     params = write_params(tmp_path / "P.json", {"k_fwc": 25.0, "T_Kp": 1e-3})
     out = tmp_path / "out"
     assert main(["export", "--params", str(params), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["Cart.fmu", "Pendulum.fmu", "modifiers.mo", "parameters.ssv"]
-    assert capsys.readouterr().out.count("wrote ") == 4
+    assert sorted(p.name for p in out.iterdir()) == ["Cart.fmu", "Pendulum.fmu", "modifiers.mo", "parameters.mat",
+                                                     "parameters.ssv", "set_parameters.m"]
+    assert capsys.readouterr().out.count("wrote ") == 6
     assert "P.json" in read_model_description(str(out / "Cart.fmu")).description
 
 

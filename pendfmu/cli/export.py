@@ -5,11 +5,14 @@ Writes DIR/<Name>.fmu for each component one of the given parameters belongs to 
 components named by --component; all three when the file gives no parameters), with the
 new start values, a fresh GUID and the original binaries; DIR/parameters.ssv (SSP 1.0,
 names like "Cart.k_fwc"); DIR/modifiers.mo (package PendfmuExport: component declarations
-and a complete rig model). m_p = 0 (pendulum removed) exports no Pendulum.
+and a complete rig model); DIR/set_parameters.m and DIR/parameters.mat (the values for
+Simulink's FMU Import blocks: a MATLAB function that sets them on the blocks of these FMUs,
+and the same values as MATLAB structs). m_p = 0 (pendulum removed) exports no Pendulum.
 
 With --fmu X.fmu (or --system S.ssp): DIR/<Name>.fmu, a copy of the user's FMU whose
-model description carries the values as start values (binaries untouched, GUID kept), and
-DIR/parameters.ssv (pendfmu/export/model.py says what the copy can and cannot do).
+model description carries the values as start values (binaries untouched, GUID kept),
+DIR/parameters.ssv, DIR/set_parameters.m and DIR/parameters.mat (pendfmu/export/model.py says
+what the copy can and cannot do).
 
 With --reference REF.csv [--input STIM.csv]: each written FMU whose variables name every
 column of REF.csv also carries the reference results and the stimulus, in the layout of
@@ -22,7 +25,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-HELP = "write parameterized FMUs, an SSV file and Modelica modifiers"
+HELP = "write parameterized FMUs, an SSV file, Modelica modifiers and Simulink parameters"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

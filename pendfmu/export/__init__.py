@@ -8,7 +8,10 @@
 - ``parameters.ssv``: SSP 1.0 parameter values, named ``Component.parameter``
   (:mod:`pendfmu.export.ssv`);
 - ``modifiers.mo``: Modelica declarations and a complete rig model for the PendulumID
-  library (:mod:`pendfmu.export.modelica`).
+  library (:mod:`pendfmu.export.modelica`);
+- ``set_parameters.m`` and ``parameters.mat``: the values for Simulink's FMU Import blocks,
+  a MATLAB function that sets them on the blocks (checking each block loads the exported
+  FMU) and the same values as MATLAB structs (:mod:`pendfmu.export.simulink`).
 
 Which components are exported and which values each receives is decided first, by
 :func:`plan_export` (:mod:`pendfmu.export.plan`), so a bad value stops the export before
@@ -24,6 +27,7 @@ from pendfmu.errors import UsageError
 from pendfmu.export.fmu import START_FILE, write_parameterized_fmu
 from pendfmu.export.modelica import write_modifiers
 from pendfmu.export.plan import ExportPlan, plan_export
+from pendfmu.export.simulink import block_values, write_simulink_files
 from pendfmu.export.ssv import write_parameter_values
 
 __all__ = ["ExportPlan", "START_FILE", "export_all", "plan_export", "write_export"]
@@ -44,12 +48,15 @@ def write_export(plan: ExportPlan, out_dir: str | Path) -> list[Path]:
     set_name = Path(plan.source).stem if plan.source.endswith(".json") else "exported"
     paths.append(write_parameter_values(values, out_dir / SSV_FILE, set_name))
     paths.append(write_modifiers(plan, out_dir / MODELICA_FILE))
+    blocks = [block_values(name, fmu, values[name], plan.components[name], plan.source)
+              for name, fmu in zip(plan.components, paths)]
+    paths += write_simulink_files(blocks, out_dir, plan.source)
     return paths
 
 
 def export_all(parameters: Mapping[str, object], out_dir: str | Path, *, components: Iterable[str] | None = None,
                source: str | None = None) -> list[Path]:
-    """Check `parameters` (rig names -> values) and write the FMUs, SSV and Modelica files.
+    """Check `parameters` (rig names -> values) and write the FMUs, SSV, Modelica and Simulink files.
 
     `components` picks the FMUs to write (default: every component one of the given
     names belongs to; all three when none is given). `source` names where the values came

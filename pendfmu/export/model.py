@@ -7,7 +7,9 @@ Writes into one folder:
   description); every other member, the binaries included, byte for byte. The GUID is
   kept: a binary pendfmu did not build checks it at fmi2Instantiate;
 - ``parameters.ssv``: SSP 1.0 parameter values of every parameter, named
-  ``Instance.parameter`` (validated against the SSV schema).
+  ``Instance.parameter`` (validated against the SSV schema);
+- ``set_parameters.m`` and ``parameters.mat``: the same values for Simulink's FMU Import
+  blocks of the copies (:mod:`pendfmu.export.simulink`).
 
 What the copy can and cannot do: an importer that sets every parameter to the start value
 its model description declares (pendfmu does; SSP tools apply the SSV) runs it with the
@@ -34,23 +36,25 @@ SSV_FILE = "parameters.ssv"
 
 def export_model(model: Model, values: Mapping[str, float], out_dir: str | Path,
                  source: str = "a pendfmu fit") -> list[Path]:
-    """Write the parameterized FMU copies and the SSV file of `model` with `values` (the
-    model's names); return their paths. Values are checked by the model first."""
+    """Write the parameterized FMU copies, the SSV file and the Simulink files of `model`
+    with `values` (the model's names); return their paths. Values are checked by the model first."""
+    from pendfmu.export.simulink import block_values, write_simulink_files
     from pendfmu.fitting.models import checked_values
 
     checked = checked_values(model, values)
-    per = model.split({**model.defaults(), **checked})
+    per, given = model.split({**model.defaults(), **checked}), model.split(checked)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    paths = []
+    paths, blocks = [], []
     for name, instance in model.instances.items():
         if instance.fmu is None:
             continue  # pendfmu's own components: pendfmu export writes those
         paths.append(_parameterized_copy(Path(instance.fmu), per[name], out_dir / f"{name}.fmu", source))
+        blocks.append(block_values(name, paths[-1], per[name], given[name], source))
     entries = {f"{name}.{parameter}": ParameterValue(float(value), None, "Real")
                for name, parameters in per.items() for parameter, value in sorted(parameters.items())}
     paths.append(write_ssv(ParameterSet("fitted", entries), out_dir / SSV_FILE))
-    return paths
+    return paths + write_simulink_files(blocks, out_dir, source)
 
 
 def _parameterized_copy(original: Path, values: Mapping[str, float], target: Path, source: str) -> Path:
