@@ -29,4 +29,4 @@ tools:
 	  || echo "warning: valgrind could not be installed; the memcheck test will be skipped" >&2
 
 clean:
-	rm -rf $(VENV) fmus/*.fmu fmus/build out .pytest_cache
+	rm -rf $(VENV) fmus/*.fmu fmus/fmi3 fmus/build out .pytest_cache
