@@ -500,13 +500,7 @@ fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
 
 fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
     CHECK("fmi2SetContinuousStates", FMU_CONTINUOUS_MODE, fmi2ModelExchange);
-    if ((nx > 0 && !x) || nx != N_STATES) return fail(inst, "fmi2SetContinuousStates: %zu states given, %d expected", nx, N_STATES);
-    for (size_t k = 0; k < nx; k++)
-        if (!isfinite(x[k])) return fail(inst, "fmi2SetContinuousStates: state %s = %g is not finite",
-                                         REAL_INFO[STATE_VR[k]].name, x[k]);
-    memcpy(inst->s.x, x, N_STATES * sizeof(double));
-    inst->s.outputs = OUTPUTS_STALE;
-    return fmi2OK;
+    return instance_set_states(inst, "fmi2SetContinuousStates", x, nx) ? fmi2OK : fmi2Error;
 }
 
 fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
