@@ -13,6 +13,10 @@ binary's side of this contract):
 
 The start file lists *every* parameter, read back from the edited XML, so what the XML
 declares and what the binary computes with cannot differ, whatever the defaults are.
+
+FMI 3.0 FMUs (``fmi_version=3``) are exported the same way: the fresh GUID is the
+``instantiationToken``, a Real parameter is a ``Float64`` element carrying its own start,
+and the binary finds the start file through FMI 3.0's resourcePath.
 """
 
 from __future__ import annotations
@@ -43,6 +47,23 @@ def _parse(data: bytes) -> etree._Element:
     return etree.fromstring(data, etree.XMLParser(remove_blank_text=False, resolve_entities=False, no_network=True))
 
 
+def _token_attribute(root: etree._Element) -> str:
+    """Where a model description keeps its GUID: guid (FMI 2.0), instantiationToken (3.0)."""
+    return "instantiationToken" if root.get("fmiVersion", "").startswith("3") else "guid"
+
+
+def _variables(root: etree._Element):
+    """(name, causality, the element with the Real start and unit or None, value reference)
+    of every variable, FMI 2.0's ScalarVariable or FMI 3.0's typed element."""
+    if _token_attribute(root) == "guid":
+        for variable in root.iterfind("ModelVariables/ScalarVariable"):
+            yield variable.get("name"), variable.get("causality"), variable.find("Real"), variable.get("valueReference")
+    else:
+        for variable in root.iterfind("ModelVariables/*"):
+            real = variable if variable.tag == "Float64" else None
+            yield variable.get("name"), variable.get("causality"), real, variable.get("valueReference")
+
+
 def _now() -> str:
     """xs:dateTime of now in UTC, for generationDateAndTime."""
     return datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z")
@@ -57,19 +78,18 @@ def parameterized_description(original: bytes, values: Mapping[str, float], guid
     the plan has already checked the names against the component table.
     """
     root = _parse(original)
-    root.set("guid", guid)
+    root.set(_token_attribute(root), guid)
     changed = ", ".join(values) if values else "no values changed"
     root.set("description", f"{root.get('description', '')} [parameterized by pendfmu export from {source}: "
                             f"{changed}]")
     root.set("generationTool", f"pendfmu {__version__} export (parameterized copy of {root.get('generationTool')})")
     root.set("generationDateAndTime", _now())
     found = set()
-    for variable in root.iterfind("ModelVariables/ScalarVariable"):
-        name = variable.get("name")
+    for name, causality, real, _ in _variables(root):
         if name in values:
-            if variable.get("causality") != "parameter" or variable.find("Real") is None:
+            if causality != "parameter" or real is None:
                 raise ValueError(f"{root.get('modelName')}: {name} is not a Real parameter")
-            variable.find("Real").set("start", repr(float(values[name])))
+            real.set("start", repr(float(values[name])))
             found.add(name)
     missing = set(values) - found
     if missing:
@@ -86,13 +106,12 @@ def start_file_text(description: bytes) -> str:
     XML as is. Lines stay short: the binary reads lines of at most 255 characters.
     """
     root = _parse(description)
-    lines = [f"guid {root.get('guid')}",
+    lines = [f"guid {root.get(_token_attribute(root))}",
              f"# start values of {root.get('modelName')} parameters: <value reference> <value>"]
-    for variable in root.iterfind("ModelVariables/ScalarVariable"):
-        real = variable.find("Real")
-        if variable.get("causality") == "parameter" and real is not None:
-            lines.append(f"# {variable.get('name')} [{real.get('unit', '')}]")
-            lines.append(f"{variable.get('valueReference')} {real.get('start')}")
+    for name, causality, real, value_reference in _variables(root):
+        if causality == "parameter" and real is not None:
+            lines.append(f"# {name} [{real.get('unit', '')}]")
+            lines.append(f"{value_reference} {real.get('start')}")
     return "\n".join(lines) + "\n"
 
 
@@ -105,14 +124,15 @@ def _copy_info(info: zipfile.ZipInfo) -> zipfile.ZipInfo:
 
 
 def write_parameterized_fmu(name: str, values: Mapping[str, float], target: str | Path,
-                            source: str = "parameters given in Python") -> Path:
-    """Write component `name`'s FMU with start values `values` to `target`; return the path.
+                            source: str = "parameters given in Python", fmi_version: int = 2) -> Path:
+    """Write component `name`'s FMU (FMI 2.0, or 3.0) with start values `values` to `target`;
+    return the path.
 
     Every member but modelDescription.xml is copied byte for byte; a start file left by an
     earlier export (there is none in a built FMU) would be replaced. The file appears
     atomically: a reader never sees half an FMU.
     """
-    original, target = ensure_fmu(name), Path(target)
+    original, target = ensure_fmu(name, fmi_version), Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     partial = target.with_name(f".{target.name}.{os.getpid()}.part")
     try:

@@ -9,6 +9,9 @@ The FMU holds modelDescription.xml, binaries/linux64/<Name>.so and sources/ (fra
 model and generated tables in one flat folder, plus buildDescription.xml), so that an
 importer on another platform can compile it. The GUID is a hash of everything that goes
 into the binary: an FMU is rebuilt exactly when that hash changes.
+
+FMI 3.0 versions of the same components (fmus/fmi3/<Name>.fmu) differ only in what
+FMI_VERSIONS lists: the facade compiled in, the binaries folder, the description writer.
 """
 
 from __future__ import annotations
@@ -21,7 +24,8 @@ import subprocess
 import tempfile
 import uuid
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import fmpy
@@ -29,7 +33,7 @@ import platformdirs
 
 from pendfmu import __version__
 from pendfmu.components import Component
-from pendfmu.fmubuild import ctables, description
+from pendfmu.fmubuild import ctables, description, description3
 
 
 
@@ -74,26 +78,54 @@ PLATFORM = "linux64"
 LIBRARY_SUFFIX = ".so"  # a shared library on PLATFORM
 
 
-def _hand_written_sources(component: Component) -> dict[str, str]:
-    """File name in sources/ -> text, for the framework and the model."""
-    files = {p.name: p.read_text() for p in sorted(FRAMEWORK_DIR.iterdir()) if p.suffix in (".c", ".h")}
+@dataclass(frozen=True)
+class FmiVersion:
+    """What an FMI version changes in a component FMU; everything else is shared."""
+
+    facade: str  # the framework file with this version's API functions
+    platform: str  # binaries/<platform>/ for PLATFORM's library
+    subfolder: str  # where the FMUs go, inside the FMU folder
+    model_description: Callable[[Component, str, list[str]], bytes]
+
+
+FMI_VERSIONS = {
+    2: FmiVersion("fmi2_api.c", PLATFORM, "", description.model_description),
+    3: FmiVersion("fmi3_api.c", "x86_64-linux", "fmi3", description3.model_description),
+}
+
+
+def fmi_version_of(fmi_version: int) -> FmiVersion:
+    if fmi_version not in FMI_VERSIONS:
+        raise ValueError(f"FMI version {fmi_version!r} is not built; known: {', '.join(map(str, FMI_VERSIONS))}")
+    return FMI_VERSIONS[fmi_version]
+
+
+def _hand_written_sources(component: Component, fmi_version: int = 2) -> dict[str, str]:
+    """File name in sources/ -> text, for the framework and the model: the shared framework
+    and this version's facade, never another version's."""
+    other_facades = {v.facade for n, v in FMI_VERSIONS.items() if n != fmi_version}
+    files = {p.name: p.read_text() for p in sorted(FRAMEWORK_DIR.iterdir())
+             if p.suffix in (".c", ".h") and p.name not in other_facades}
     files["model.c"] = (SOURCE_DIR / component.name / "model.c").read_text()
     return files
 
 
-def compute_guid(component: Component) -> str:
-    """A GUID that changes whenever the table, the sources or the compiler flags change."""
+def compute_guid(component: Component, fmi_version: int = 2) -> str:
+    """A GUID that changes whenever the table, the sources or the compiler flags change
+    (an FMI 3.0 FMU's instantiationToken: its facade is among the sources)."""
     digest = hashlib.sha256()
     digest.update(repr(component).encode())
     digest.update(" ".join(CFLAGS).encode())
     digest.update(__version__.encode())
-    for name, text in _hand_written_sources(component).items():
+    for name, text in _hand_written_sources(component, fmi_version).items():
         digest.update(name.encode() + b"\0" + text.encode())
     return "{" + str(uuid.UUID(digest.hexdigest()[:32])) + "}"
 
 
-def fmu_path(component: Component, folder: Path | None = None) -> Path:
-    return (folder or FMUS_DIR) / f"{component.name}.fmu"
+def fmu_path(component: Component, fmi_version: int = 2, folder: Path | None = None) -> Path:
+    """<folder>/<Name>.fmu for FMI 2.0, <folder>/fmi3/<Name>.fmu for FMI 3.0 (folder: the
+    FMU folder pendfmu loads from, fmu_folder())."""
+    return (folder or FMUS_DIR) / fmi_version_of(fmi_version).subfolder / f"{component.name}.fmu"
 
 
 _DESCRIPTIONS: dict[tuple, object] = {}
@@ -120,8 +152,8 @@ def built_guid(path: Path) -> str | None:
         return None
 
 
-def source_files(component: Component, guid: str) -> dict[str, str]:
-    files = _hand_written_sources(component)
+def source_files(component: Component, guid: str, fmi_version: int = 2) -> dict[str, str]:
+    files = _hand_written_sources(component, fmi_version)
     files["variables.h"] = ctables.variables_header(component, guid)
     files["variables.c"] = ctables.variables_source(component)
     return files
@@ -146,15 +178,16 @@ def compile_sources(source_dir: Path, output: Path, compiler: str | None = None)
     compile_library(sorted(str(p) for p in source_dir.glob("*.c")), output, [source_dir], compiler)
 
 
-def build_fmu(component: Component, force: bool = False, folder: Path | None = None) -> Path:
-    """Build <folder>/<Name>.fmu (default: fmu_folder()) unless an FMU of the same sources
-    is already there."""
-    target = fmu_path(component, folder)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    guid = compute_guid(component)
+def build_fmu(component: Component, force: bool = False, fmi_version: int = 2, folder: Path | None = None) -> Path:
+    """Build <folder>/<Name>.fmu (FMI 3.0: <folder>/fmi3/<Name>.fmu; folder: fmu_folder())
+    unless an FMU of the same sources is already there."""
+    version = fmi_version_of(fmi_version)
+    target = fmu_path(component, fmi_version, folder)
+    guid = compute_guid(component, fmi_version)
     if not force and target.exists() and built_guid(target) == guid:
         return target
-    files = source_files(component, guid)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    files = source_files(component, guid, fmi_version)
     names = sorted(files)
     with tempfile.TemporaryDirectory(prefix=f"pendfmu-{component.name}-") as tmp:
         tmp_dir = Path(tmp)
@@ -166,8 +199,8 @@ def build_fmu(component: Component, force: bool = False, folder: Path | None = N
         compile_sources(sources, library)
         partial = target.with_name(f".{target.name}.{os.getpid()}.part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as fmu:
-            fmu.writestr("modelDescription.xml", description.model_description(component, guid, names))
-            fmu.write(library, f"binaries/{PLATFORM}/{library.name}")
+            fmu.writestr("modelDescription.xml", version.model_description(component, guid, names))
+            fmu.write(library, f"binaries/{version.platform}/{library.name}")
             for name in names:
                 fmu.write(sources / name, f"sources/{name}")
             fmu.writestr("sources/buildDescription.xml", description.build_description(component, names))

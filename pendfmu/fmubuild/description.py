@@ -65,6 +65,20 @@ def _source_files(parent: etree._Element, sources: list[str]) -> None:
             etree.SubElement(files, "File", name=name)
 
 
+def add_units_logging_and_experiment(root: etree._Element, component: Component) -> None:
+    """UnitDefinitions, LogCategories and DefaultExperiment: the same in FMI 2.0 and 3.0."""
+    units = etree.SubElement(root, "UnitDefinitions")
+    for unit in sorted({v.unit for v in component.variables if v.unit}):
+        if unit not in BASE_UNITS:
+            raise ValueError(f"{component.name}: unit {unit!r} has no entry in pendfmu/fmubuild/units.py")
+        etree.SubElement(etree.SubElement(units, "Unit", name=unit), "BaseUnit",
+                         {k: str(e) for k, e in BASE_UNITS[unit].items()})
+    categories = etree.SubElement(root, "LogCategories")
+    etree.SubElement(categories, "Category", name="logEvents", description="Mode changes (stick, slip, saturation)")
+    etree.SubElement(categories, "Category", name="logStatusError", description="Errors and why they happened")
+    etree.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime="1.0", stepSize="0.0002")
+
+
 def model_description(component: Component, guid: str, sources: list[str]) -> bytes:
     """The modelDescription.xml of `component` as bytes (UTF-8, with declaration)."""
     root = etree.Element(
@@ -85,17 +99,7 @@ def model_description(component: Component, guid: str, sources: list[str]) -> by
                           canInterpolateInputs="true", maxOutputDerivativeOrder="0")
     _source_files(cs, sources)
 
-    units = etree.SubElement(root, "UnitDefinitions")
-    for unit in sorted({v.unit for v in component.variables if v.unit}):
-        if unit not in BASE_UNITS:
-            raise ValueError(f"{component.name}: unit {unit!r} has no entry in pendfmu/fmubuild/units.py")
-        etree.SubElement(etree.SubElement(units, "Unit", name=unit), "BaseUnit",
-                         {k: str(e) for k, e in BASE_UNITS[unit].items()})
-
-    categories = etree.SubElement(root, "LogCategories")
-    etree.SubElement(categories, "Category", name="logEvents", description="Mode changes (stick, slip, saturation)")
-    etree.SubElement(categories, "Category", name="logStatusError", description="Errors and why they happened")
-    etree.SubElement(root, "DefaultExperiment", startTime="0.0", stopTime="1.0", stepSize="0.0002")
+    add_units_logging_and_experiment(root, component)
 
     variables = etree.SubElement(root, "ModelVariables")
     for vr, var in enumerate(component.variables):

@@ -1,12 +1,16 @@
-/* The shared FMI 2.0 framework of pendfmu's component FMUs.
+/* The shared framework of pendfmu's component FMUs, FMI 2.0 and FMI 3.0 alike.
  *
  * One binary serves Co-Simulation and Model Exchange. A component provides only its
  * equations (the functions declared at the end of this file) on top of:
  *   - variables.h / variables.c, generated from pendfmu/components.py: value
  *     references, start values, allowed ranges (the single source of truth);
- *   - fmi2_api.c: every fmi2 function, the call-order state machine, checks, logging;
- *   - solver.c: the hybrid integrator behind fmi2DoStep (RK4 on a fixed step that lands
- *     on communication points, mode changes located by root finding).
+ *   - a facade, fmi2_api.c or fmi3_api.c (an FMU holds one): every function of its FMI
+ *     version, the call-order checks, logging through the host's callback;
+ *   - instance.c: what both facades do with an instance (get and set with their checks,
+ *     initialization, a Co-Simulation step, an event update, time events, FMU states),
+ *     so that the two versions cannot compute differently;
+ *   - solver.c: the hybrid integrator behind a Co-Simulation step (RK4 on a fixed step that
+ *     lands on communication points, mode changes located by root finding).
  *
  * A component is a hybrid system: continuous states x, a discrete mode (an Integer
  * variable, e.g. the stick-slip mode of a friction joint) and event indicators z that
@@ -19,7 +23,6 @@
 #include <stdbool.h>
 #include <stddef.h>
 
-#include "fmi2Functions.h"
 #include "variables.h"
 
 /* Highest order of input derivatives accepted by fmi2SetRealInputDerivatives. */
@@ -77,13 +80,14 @@ extern const DiscreteInfo BOOLEAN_INFO[N_BOOLEAN];
 extern const unsigned STATE_VR[N_STATES_ALLOC];
 extern const unsigned INPUT_VR[N_INPUTS];
 
-/* The states of the FMI 2.0 call sequence, as bits so that each function can name the
- * set of states it may be called in. */
+/* The states of the FMI call sequence, as bits so that each function can name the set of
+ * states it may be called in. FMI 3.0's Step Mode is FMU_STEP_COMPLETE, and its Event Mode
+ * is FMU_EVENT_MODE in Co-Simulation too (when the importer uses it). */
 typedef enum {
     FMU_INSTANTIATED = 1 << 0,
     FMU_INITIALIZATION = 1 << 1,
     FMU_STEP_COMPLETE = 1 << 2,   /* Co-Simulation, between steps */
-    FMU_EVENT_MODE = 1 << 3,      /* Model Exchange */
+    FMU_EVENT_MODE = 1 << 3,      /* Model Exchange; FMI 3.0 Co-Simulation with event mode */
     FMU_CONTINUOUS_MODE = 1 << 4, /* Model Exchange */
     FMU_TERMINATED = 1 << 5,
     FMU_ERROR = 1 << 6
@@ -131,24 +135,80 @@ typedef struct {
 #endif
 } DynamicState;
 
+/* The version-neutral part of an instance. A facade allocates its own struct with this as
+ * its first member and the host's callbacks after it (their types differ between FMI 2.0
+ * and 3.0), so an instance pointer is both. */
 typedef struct {
     DynamicState s;
     double start[N_REAL]; /* start values: the table's, or a parameterized FMU's (start.c) */
-    fmi2Type type;
+    bool co_simulation;   /* else Model Exchange */
+    bool event_mode_used; /* FMI 3.0 Co-Simulation: the importer enters Event Mode for time events */
     char *name;
-    fmi2CallbackFunctions cb;
     bool logging_on;
     bool log_events;
     bool time_events; /* the model has time events (model_next_time_event finite after initialization) */
 } Instance;
 
-/* Logging through the host's logger callback (never crashes on a NULL logger). */
+/* Logging through the host's logger callback (never crashes on a NULL logger); each facade
+ * implements these for its version's callback. */
 void log_error(const Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
 void log_event(const Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
+/* The facade's name of a phase, for messages ("step complete" in FMI 2.0, "Step Mode" in 3.0). */
+const char *phase_name(FmuPhase phase);
+
+/* ---- The version-neutral work of the facades (instance.c) ----
+ * Functions returning bool have, on false, logged why (the message starts with `function`,
+ * the facade's function name) and put the instance into FMU_ERROR; the facade then
+ * returns its version's Error status. Value references are those of variables.h. */
+
+/* Fail with a logged message: the instance enters FMU_ERROR. Returns false. */
+bool instance_fail(Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
+/* Back to the start values, phase FMU_INSTANTIATED (after instantiation and reset). */
+void instance_reset(Instance *inst);
+/* Leave initialization mode: check the parameters, initialize the solver and the outputs;
+ * the phase stays the caller's to set. */
+bool instance_exit_initialization(Instance *inst, const char *function);
+/* Getters: update the outputs if needed, then copy. */
+bool instance_get_reals(Instance *inst, const char *function, const unsigned vr[], size_t nvr, double value[]);
+bool instance_get_integers(Instance *inst, const char *function, const unsigned vr[], size_t nvr, int value[]);
+/* Setters: check every value (causality against the phase, finite, physical range) before
+ * changing any, so a refused call leaves the values as they were. */
+bool instance_set_reals(Instance *inst, const char *function, const unsigned vr[], size_t nvr, const double value[]);
+bool instance_set_integers(Instance *inst, const char *function, const unsigned vr[], size_t nvr, const int value[]);
+/* Booleans (an int in FMI 2.0, a bool in 3.0): check the references (and, to set, that the
+ * variables may be set now; to get, update the outputs); the facade then copies
+ * inst->s.b[vr - VR_BOOLEAN_BASE] (setting marks the outputs stale already). */
+bool instance_boolean_access(Instance *inst, const char *function, const unsigned vr[], size_t nvr, bool set);
+/* A Co-Simulation step from `t` of size `h`, time events included. */
+bool instance_do_step(Instance *inst, const char *function, double t, double h);
+/* Whether a time event falls on the current time and has not been taken yet. */
+bool instance_time_event_due(const Instance *inst);
+/* An event update at the current time (Event Mode): the mode made consistent, the time
+ * events due taken. Reports whether the states changed and the next time event (INFINITY:
+ * none). */
+bool instance_update_discrete_states(Instance *inst, const char *function, bool *states_changed,
+                                     double *next_event_time);
+/* Whether an event indicator is negative now: an event was stepped over (Model Exchange). */
+bool instance_event_indicator_crossed(const Instance *inst);
+/* Model Exchange: set states, time; get derivatives, indicators. */
+bool instance_set_time(Instance *inst, const char *function, double time);
+bool instance_set_states(Instance *inst, const char *function, const double x[], size_t nx);
+bool instance_check_count(Instance *inst, const char *function, const void *array, size_t n, int expected,
+                          const char *what);
+/* FMU states: a serialized state is a fixed-size record of the magic, the build's GUID
+ * (instantiation token in FMI 3.0) and the DynamicState, checked when read back. */
+size_t instance_serialized_size(void);
+bool instance_serialize(Instance *inst, const char *function, const DynamicState *state, unsigned char *bytes,
+                        size_t size);
+bool instance_deserialize(Instance *inst, const char *function, const unsigned char *bytes, size_t size,
+                          DynamicState *state);
 
 /* Start values of a parameterized FMU (start.c): accept `guid` if the FMU's resources
  * carry a start-value file for it, and apply its values to inst->start. */
 bool start_values_accept(Instance *inst, const char *guid, const char *resource_location);
+/* The same for FMI 3.0, whose resourcePath is a local path, not a URI; `token` is the
+ * instantiationToken. */
+bool start_values_accept_path(Instance *inst, const char *token, const char *resource_path);
 
 /* Solver services (solver.c) */
 void solver_inputs_at(Instance *inst, double t);

@@ -44,9 +44,10 @@ static bool uri_to_path(const char *uri, char *path, size_t size) {
     return *p == 0;
 }
 
-bool start_values_accept(Instance *inst, const char *guid, const char *resource_location) {
-    char directory[4096], file_name[4200], line[256];
-    if (!resource_location || !uri_to_path(resource_location, directory, sizeof directory)) return false;
+/* The start-value file in `directory` (a local path), if it names `guid`: its values
+ * become inst->start. */
+static bool accept_from_directory(Instance *inst, const char *guid, const char *directory) {
+    char file_name[4200], line[256];
     const size_t length = strlen(directory);
     snprintf(file_name, sizeof file_name, "%s%s%s", directory,
              length && directory[length - 1] == '/' ? "" : "/", START_FILE);
@@ -86,4 +87,14 @@ bool start_values_accept(Instance *inst, const char *guid, const char *resource_
     fclose(file);
     if (accepted) memcpy(inst->start, values, sizeof values);
     return accepted;
+}
+
+bool start_values_accept(Instance *inst, const char *guid, const char *resource_location) {
+    char directory[4096];
+    if (!resource_location || !uri_to_path(resource_location, directory, sizeof directory)) return false;
+    return accept_from_directory(inst, guid, directory);
+}
+
+bool start_values_accept_path(Instance *inst, const char *token, const char *resource_path) {
+    return resource_path && *resource_path && accept_from_directory(inst, token, resource_path);
 }
