@@ -62,15 +62,25 @@ def expected_starts(name: str) -> dict[str, float]:
 
 def test_writes_three_fmus_the_ssv_and_the_modelica_text(exported):
     out, paths = exported
-    assert [p.name for p in paths] == ["CurrentLoop.fmu", "Cart.fmu", "Pendulum.fmu", "parameters.ssv",
-                                       "modifiers.mo", "set_parameters.m", "parameters.mat"]
-    assert all(p.parent == out and p.is_file() for p in paths)
+    assert [p.relative_to(out).as_posix() for p in paths] == [
+        "CurrentLoop.fmu", "Cart.fmu", "Pendulum.fmu", "parameters.ssv", "modifiers.mo", "set_parameters.m",
+        "parameters.mat", "fmi3/CurrentLoop.fmu", "fmi3/Cart.fmu", "fmi3/Pendulum.fmu"]
+    assert all(p.is_file() for p in paths)
     assert not list(out.glob(".*.part"))
 
 
 @pytest.mark.parametrize("name", sorted(COMPONENTS))
 def test_exported_fmu_passes_fmpy_validation(exported, name):
     assert validate_fmu(str(exported[0] / f"{name}.fmu")) == []
+
+
+@pytest.mark.parametrize("name", sorted(COMPONENTS))
+def test_the_fmi3_twin_declares_the_same_start_values(exported, name):
+    """fmi3/<Name>.fmu: valid FMI 3.0, every parameter's start value the FMI 2.0 copy's."""
+    fmi2, fmi3 = (read_model_description(str(exported[0] / sub / f"{name}.fmu")) for sub in ("", "fmi3"))
+    assert fmi3.fmiVersion == "3.0" and validate_fmu(str(exported[0] / "fmi3" / f"{name}.fmu")) == []
+    starts = [{v.name: float(v.start) for v in d.modelVariables if v.causality == "parameter"} for d in (fmi2, fmi3)]
+    assert starts[0] == starts[1] and starts[0] == expected_starts(name)
 
 
 @pytest.mark.parametrize("name", sorted(COMPONENTS))
@@ -182,7 +192,8 @@ def test_m_p_zero_exports_the_cart_and_leaves_out_the_pendulum(tmp_path):
     assert list(plan.components) == ["Cart"]
     assert "Pendulum" in plan.skipped and "(0.0, inf)" in plan.skipped["Pendulum"]
     paths = export_all({"m_p": 0.0, "k_fwc": 20.0, "v0": 0.3}, tmp_path)
-    assert [p.name for p in paths] == ["Cart.fmu", "parameters.ssv", "modifiers.mo", "set_parameters.m", "parameters.mat"]
+    assert [p.name for p in paths] == ["Cart.fmu", "parameters.ssv", "modifiers.mo", "set_parameters.m", "parameters.mat",
+                                       "Cart.fmu"]  # the last: fmi3/Cart.fmu
     result = simulate_fmu(str(paths[0]), stop_time=0.1, output_interval=1e-3, output=["v"])
     assert result["v"][0] == 0.3 and result["v"][-1] == 0.0
     assert "IdentifiedCartStartStop" in (tmp_path / "modifiers.mo").read_text()
@@ -346,9 +357,10 @@ def test_cli_writes_the_files(tmp_path, capsys):
     params = write_params(tmp_path / "P.json", {"k_fwc": 25.0, "T_Kp": 1e-3})
     out = tmp_path / "out"
     assert main(["export", "--params", str(params), "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["Cart.fmu", "Pendulum.fmu", "modifiers.mo", "parameters.mat",
-                                                     "parameters.ssv", "set_parameters.m"]
-    assert capsys.readouterr().out.count("wrote ") == 6
+    assert sorted(p.name for p in out.iterdir()) == ["Cart.fmu", "Pendulum.fmu", "fmi3", "modifiers.mo",
+                                                     "parameters.mat", "parameters.ssv", "set_parameters.m"]
+    assert sorted(p.name for p in (out / "fmi3").iterdir()) == ["Cart.fmu", "Pendulum.fmu"]
+    assert capsys.readouterr().out.count("wrote ") == 8
     assert "P.json" in read_model_description(str(out / "Cart.fmu")).description
 
 

@@ -1,7 +1,7 @@
 """Export parameters for other tools: parameterized FMUs, an SSP parameter values file and
 Modelica modifiers for the PendulumID library.
 
-Writes DIR/<Name>.fmu for each component one of the given parameters belongs to (or the
+Writes DIR/<Name>.fmu (and DIR/fmi3/<Name>.fmu, its FMI 3.0 twin) for each component one of the given parameters belongs to (or the
 components named by --component; all three when the file gives no parameters), with the
 new start values, a fresh GUID and the original binaries; DIR/parameters.ssv (SSP 1.0,
 names like "Cart.k_fwc"); DIR/modifiers.mo (package PendfmuExport: component declarations

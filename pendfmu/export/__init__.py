@@ -4,7 +4,8 @@
 
 - ``<Name>.fmu`` for each exported component: the built FMU with the new parameter start
   values, a fresh GUID and ``resources/pendfmu-start.txt``; binaries and sources are the
-  original bytes (:mod:`pendfmu.export.fmu`);
+  original bytes (:mod:`pendfmu.export.fmu`); ``fmi3/<Name>.fmu`` the same for the
+  component's FMI 3.0 FMU;
 - ``parameters.ssv``: SSP 1.0 parameter values, named ``Component.parameter``
   (:mod:`pendfmu.export.ssv`);
 - ``modifiers.mo``: Modelica declarations and a complete rig model for the PendulumID
@@ -51,6 +52,8 @@ def write_export(plan: ExportPlan, out_dir: str | Path) -> list[Path]:
     blocks = [block_values(name, fmu, values[name], plan.components[name], plan.source)
               for name, fmu in zip(plan.components, paths)]
     paths += write_simulink_files(blocks, out_dir, plan.source)
+    paths += [write_parameterized_fmu(name, given, out_dir / "fmi3" / f"{name}.fmu", plan.source, fmi_version=3)
+              for name, given in plan.components.items()]
     return paths
 
 
