@@ -14,11 +14,11 @@ import sys
 import traceback
 from collections.abc import Sequence
 
-from pendfmu.cli import build, check, demo, export, fit, rig, simulate, system
+from pendfmu.cli import build, check, demo, export, fit, report, rig, simulate, system
 from pendfmu.errors import EXIT_BAD_INPUT, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, FMUError, Suspicious
 
 SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export,
-               "system": system, "check": check}
+               "system": system, "check": check, "report": report}
 
 
 class _Parser(argparse.ArgumentParser):
