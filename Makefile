@@ -23,10 +23,13 @@ demo: fmus
 test: fmus tools
 	$(PY) -m pytest
 
-# valgrind for the memcheck test (Debian's package; this kind of machine usually has it)
+# valgrind for the memcheck test, chromium for the report's browser test (Debian's packages; this
+# kind of machine usually has them)
 tools:
 	@command -v valgrind >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq valgrind; } \
 	  || echo "warning: valgrind could not be installed; the memcheck test will be skipped" >&2
+	@command -v chromium >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq chromium; } \
+	  || echo "warning: chromium could not be installed; the report's browser test will be skipped" >&2
 
 clean:
 	rm -rf $(VENV) fmus/*.fmu fmus/build out .pytest_cache

@@ -41,6 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    args.command_line = ["pendfmu", *(sys.argv[1:] if argv is None else argv)]  # a result's provenance
     try:
         return args.run(args) or 0
     except BadInput as error:

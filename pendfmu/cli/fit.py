@@ -172,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"interrupted: best values so far in {args.out}; resume with the same command and --resume "
               f"(checkpoint {path})")
         return 130
-    result.provenance = with_command(result.provenance)
+    result.provenance = with_command(result.provenance, getattr(args, "command_line", None))
     result.write_json(args.out)
     if path.exists():
         path.unlink()  # the fit is complete: its checkpoint has served

@@ -35,8 +35,8 @@ def run(args: argparse.Namespace) -> int:
         index = write_report(results[0], args.out)
     else:
         names = tuple(Path(p).stem for p in args.results)
-        if names[0] == names[1]:
-            names = tuple(str(p) for p in args.results)
-        index = write_comparison(results[0], results[1], args.out, names)
+        if names[0] == names[1]:  # run1/fit.json against run2/fit.json
+            names = ("A", "B")
+        index = write_comparison(results[0], results[1], args.out, names, tuple(args.results))
     print(f"report: {index}")
     return 0

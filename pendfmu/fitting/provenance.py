@@ -112,5 +112,6 @@ def merged(records: Sequence[Mapping], extra_inputs: Iterable = ()) -> dict:
 
 
 def with_command(record: Mapping, argv: Sequence[str] | None = None) -> dict:
-    """The record with the command line that ran the fit (sys.argv by default)."""
+    """The record with the command line that ran the fit (sys.argv by default; the
+    command line passes its own, as main(argv) is also called in-process)."""
     return {**record, "command": list(sys.argv if argv is None else argv)}

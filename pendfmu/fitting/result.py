@@ -158,7 +158,8 @@ def experiment_dict(fit: ExperimentFit) -> dict:
     residuals = [np.asarray(fit.recorded[s], float) - np.asarray(fit.simulated[s], float) for s in signals]
     arrays = [np.asarray(fit.recorded[s], float) for s in signals] + [np.asarray(fit.simulated[s], float)
                                                                        for s in signals] + residuals
-    index = envelope_indices(arrays) if arrays else np.arange(len(fit.time))
+    reduced = fit.samples is not None and len(fit.time) < fit.samples  # read back: already its envelope
+    index = envelope_indices(arrays) if arrays and not reduced else np.arange(len(fit.time))
     rms = {s: (fit.rms[s] if s in fit.rms else _rms(r)) for s, r in zip(signals, residuals)}
     return {"name": fit.name, "samples": fit.samples or len(fit.time), "time": _json_array(fit.time, index),
             "recorded": {s: _json_array(fit.recorded[s], index) for s in signals},
@@ -227,6 +228,9 @@ def _result_from(document: dict) -> FitResult:
             label = f"{name}[{recording}]"
             estimates[label] = Estimate(label, float(value), None, None, math.nan, math.nan,
                                         list(flags.get(label, [])), "none")
+    for label, label_flags in flags.items():  # a flagged estimate whose value the file does not hold
+        estimates.setdefault(label, Estimate(label, math.nan, None, None, math.nan, math.nan, list(label_flags),
+                                             "none"))
     for stage in document.get("provenance", {}).get("stages", {}).values():
         for label, (low, high) in stage.get("bounds", {}).items():
             if label in estimates:

@@ -35,12 +35,13 @@ def write_report(result: FitResult, directory: str | Path) -> Path:
 
 
 def write_comparison(first: FitResult, second: FitResult, directory: str | Path,
-                     names: tuple[str, str] = ("A", "B")) -> Path:
-    """Write a report comparing two results into `directory`; returns its index.html."""
+                     names: tuple[str, str] = ("A", "B"), sources: tuple[str, str] | None = None) -> Path:
+    """Write a report comparing two results into `directory` (`names` label them, `sources`
+    are their files, if any); returns its index.html."""
     from pendfmu.report.compare import comparison_page
 
     directory = _fresh(directory)
-    return _finish(directory, comparison_page(first, second, names), [])
+    return _finish(directory, comparison_page(first, second, names, sources), [])
 
 
 def _fresh(directory: str | Path) -> Path:

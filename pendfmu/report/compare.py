@@ -39,9 +39,10 @@ def difference(a: float | None, se_a: float | None, b: float | None, se_b: float
     return delta, combined, delta / combined
 
 
-def comparison_page(first: FitResult, second: FitResult, names: tuple[str, str] = ("A", "B")) -> str:
+def comparison_page(first: FitResult, second: FitResult, names: tuple[str, str] = ("A", "B"),
+                    sources: tuple[str, str] | None = None) -> str:
     sections = [
-        _section("Results compared", _overview(first, second, names)),
+        _section("Results compared", _overview(first, second, names, sources or ("", ""))),
         _section("Fitted values", _values(first, second, names)),
         _section("Known values that differ", _known(first, second, names)),
         _section("Recordings of both, overlaid", _overlays(first, second, names)),
@@ -53,14 +54,15 @@ def comparison_page(first: FitResult, second: FitResult, names: tuple[str, str] 
     return document(f"pendfmu comparison: {names[0]} and {names[1]}", sections, plots)
 
 
-def _overview(first: FitResult, second: FitResult, names: tuple[str, str]) -> str:
+def _overview(first: FitResult, second: FitResult, names: tuple[str, str], sources: tuple[str, str]) -> str:
     rows = []
-    for label, result in zip(names, (first, second)):
+    for label, result, source in zip(names, (first, second), sources):
         record = result.provenance or {}
-        rows.append("<tr>" + _cell(_text(label)) + _cell(_text(result.stage)) + _cell(number(result.cost), "num")
+        rows.append("<tr>" + _cell(_text(label)) + _cell(f"<code>{_text(source)}</code>" if source else DASH)
+                    + _cell(_text(result.stage)) + _cell(number(result.cost), "num")
                     + _cell(number(scaled_rms(result), 3), "num") + _cell(_text(len(result.experiments)), "num")
                     + _cell(_text(record.get("date", DASH))) + "</tr>")
-    return _table(("result", "stage", "cost", "RMS of the scaled residuals", "recordings", "date (UTC)"), rows,
+    return _table(("result", "file", "stage", "cost", "RMS of the scaled residuals", "recordings", "date (UTC)"), rows,
                   "cost: ½ Σ r², r the residual in units of its signal's error scale (see a single report)")
 
 

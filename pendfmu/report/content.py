@@ -119,17 +119,19 @@ COST_DEFINITION = (
     "the fit misses by.")
 
 
+def fitted_samples(result: FitResult) -> int:
+    """The samples the cost sums over: every fitted signal's samples of every recording."""
+    return sum((fit.samples or len(fit.time)) * len(fit.recorded) for fit in result.experiments)
+
+
 def scaled_rms(result: FitResult) -> float | None:
     """The RMS of the scaled residuals r (cost = ½ Σ r²): √(2 cost / N) over the samples of
-    the fitted recordings; None when they are not known."""
-    samples = sum((fit.samples or len(fit.time)) * len(fit.recorded) for fit in result.experiments)
+    the fitted recordings; None when they are not known. (With --cost quantized, r is the
+    distance beyond each reading's step, so this is smaller than the RMS errors in σ.)"""
+    samples = fitted_samples(result)
     if not samples or not finite(result.cost):
         return None
     return math.sqrt(2.0 * float(result.cost) / samples)
-
-
-def fitted_samples(result: FitResult) -> int:
-    return sum((fit.samples or len(fit.time)) * len(fit.recorded) for fit in result.experiments)
 
 
 @dataclass(frozen=True)
@@ -154,21 +156,16 @@ def recording_values(result: FitResult) -> tuple[list[ExperimentFit], dict[str, 
     release angle), or that a sidecar or a per-recording estimate sets. Parameters every
     recording ran with at the result's value are left out: the known-values table shows them."""
     fits = [*result.experiments, *result.predicted]
-    table: dict[str, dict[str, RecordingValue]] = {}
+    entries: dict[str, dict[str, RecordingValue]] = {}
     for fit in fits:
-        own = {label.split("[", 1)[0] for label in result.estimates if label.endswith(f"[{fit.name}]")}
-        values = {**fit.values, **{name: v for name, v in result.initial.get(fit.name, {}).items()}}
+        values = {**fit.values, **result.initial.get(fit.name, {})}
         for name, value in values.items():
-            entry = RecordingValue(float(value), name in fit.overrides, name in own)
-            if entry.overridden or entry.fitted or entry.differs(result.parameters.get(name)):
-                table.setdefault(name, {})
-    for name in table:
-        for fit in fits:
-            values = {**fit.values, **result.initial.get(fit.name, {})}
-            own = any(label == f"{name}[{fit.name}]" for label in result.estimates)
-            table[name][fit.name] = RecordingValue(float(values[name]) if name in values else None,
-                                                   name in fit.overrides, own)
-    return fits, dict(sorted(table.items()))
+            own = f"{name}[{fit.name}]" in result.estimates
+            entries.setdefault(name, {})[fit.name] = RecordingValue(float(value), name in fit.overrides, own)
+    shown = {name: row for name, row in entries.items()
+             if any(v.overridden or v.fitted or v.differs(result.parameters.get(name)) for v in row.values())}
+    missing = RecordingValue(None, False, False)  # a parameter this recording's model does not have
+    return fits, {name: {fit.name: shown[name].get(fit.name, missing) for fit in fits} for name in sorted(shown)}
 
 
 def ran_with(result: FitResult, name: str) -> str:
