@@ -156,3 +156,17 @@ def test_values_each_recording_ran_with_are_shown_and_differences_highlighted(tm
     assert known[1] == "0.2" and known[2] == "0 in 2 of 2 recordings (sidecar)"
     text = (tmp_path / "report" / "index.html").read_text(encoding="utf-8")
     assert text.count('<td class="num differs">0 <span class="muted">(sidecar)</span></td>') == 2
+
+
+def test_predicted_recordings_get_their_own_plots_and_errors(tmp_path):
+    """fit all's recordings with both x and phi, predicted but not fitted: a plot each, and
+    their RMS errors from the traces (not only the validation numbers)."""
+    coupled = replace(long_experiment("coupled-step", 20_000), name="coupled-step")
+    fitted = replace(cart_result(), predicted=[coupled, experiment("bangbang-0", "phi", 2 * math.pi / 1024)])
+    page = Page(write_report(fitted, tmp_path / "report").read_text(encoding="utf-8"))
+    assert page.plots == ["fit-01", "fit-02", "predicted-01", "predicted-02"]
+    header = next(r for r in page.rows if r and r[0] == "recording" and "RMS error [σ]" in r)
+    row = next(r for r in page.rows if r[:2] == ["coupled-step", "phi"])
+    expected = signal_errors(coupled)[0]
+    assert float(row[header.index("RMS error [steps]")]) == pytest.approx(expected.steps, rel=5e-3)
+    assert float(row[header.index("RMS error [σ]")]) == pytest.approx(math.sqrt(12) * expected.steps, rel=5e-3)
