@@ -24,13 +24,15 @@ test: fmus tools
 	$(PY) -m pytest
 
 # valgrind for the memcheck test, GNU Octave (and unzip, which its unzip() runs) for the test
-# that runs the exported Simulink script (Debian's packages; this kind of machine usually has valgrind)
+# that runs the exported Simulink script, chromium for the report's browser test (Debian's packages)
 tools:
 	@command -v valgrind >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq valgrind; } \
 	  || echo "warning: valgrind could not be installed; the memcheck test will be skipped" >&2
 	@{ command -v octave-cli >/dev/null 2>&1 && command -v unzip >/dev/null 2>&1; } \
 	  || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends octave unzip; } \
 	  || echo "warning: GNU Octave could not be installed; the tests that run the exported MATLAB script will be skipped" >&2
+	@command -v chromium >/dev/null 2>&1 || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; } \
+	  || echo "warning: chromium could not be installed; the report's browser test will be skipped" >&2
 
 clean:
 	rm -rf $(VENV) fmus out .pytest_cache build dist

@@ -29,14 +29,17 @@ CART_TRUTH = {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}
 
 
 def result_without_time(path):
-    """A result file's content without its timings (fit.seconds and fit.uncertainty.seconds),
-    the only fields that differ between runs."""
+    """A result file's content without its timings (fit.seconds and fit.uncertainty.seconds)
+    and the date and command line of its provenance, the only fields that differ between
+    runs (the command line names the run's own output file and worker count)."""
     import json
 
     document = json.loads(path.read_text())
     document["fit"].pop("seconds")
     if isinstance(document["fit"].get("uncertainty"), dict):
         document["fit"]["uncertainty"].pop("seconds", None)
+    for key in ("date", "command"):
+        document.get("provenance", {}).pop(key, None)
     return document
 
 

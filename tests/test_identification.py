@@ -10,6 +10,7 @@ RMS phi error below 3 encoder steps.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -56,6 +57,28 @@ def test_the_identified_model_predicts_the_coupled_experiments(all_stages):
     assert set(validation) == coupled
     for name, errors in validation.items():
         assert errors["phi_rms_steps"] < 3, f"{name}: {errors}"
+
+
+def test_result_file_keeps_the_predicted_recordings_and_the_provenance(rig, all_stages):
+    """The report needs the predicted recordings' traces (each at most its envelope, with
+    the RMS of every sample equal to the validation's) and where the result came from."""
+    from pendfmu.fitting.provenance import sha256
+
+    coupled = {e.name for e in standard_experiments() if e.kind == "rig"}
+    predicted = {entry["name"]: entry for entry in all_stages["predicted"]}
+    assert set(predicted) == coupled
+    for name, entry in predicted.items():
+        assert entry["rms"]["phi"] == pytest.approx(all_stages["fit"]["validation"][name]["phi_rms"], rel=1e-12)
+        assert len(entry["time"]) <= entry["samples"]
+    provenance = all_stages["provenance"]
+    assert provenance["command"] == ["pendfmu", "fit", "all", str(rig), "--out", provenance["command"][5], "--seed", "3"]
+    assert set(provenance["stages"]) == {"current", "cart", "pendulum"}
+    files = {Path(entry["path"]).name: entry["sha256"] for entry in provenance["inputs"]}
+    stems = {path.stem for path in rig.glob("*.csv")}
+    for path in sorted(p for p in rig.iterdir() if p.stem in stems):  # every recording and sidecar
+        assert files[path.name] == sha256(path), path.name
+    cart = [entry for entry in all_stages["recordings"] if entry["name"].startswith("cart")]
+    assert cart and all(entry["values"]["m_p"] == 0.0 and entry["overrides"]["m_p"] == 0.0 for entry in cart)
 
 
 def test_result_file_has_the_contract_keys(all_stages):

@@ -1,11 +1,15 @@
-"""The fit report: a self-contained HTML page with its PNG figures (pendfmu.report).
+"""The fit report: a self-contained HTML page with interactive plots and friction PNGs
+(pendfmu.report).
 
 Results are built by hand, so these tests do not fit anything; one integration test
-writes the report of a real (quick) current-loop fit.
+writes the report of a real (quick) current-loop fit. The page in a browser is
+tests/test_report_browser.py; the envelope, the manifest and the comparison have tests
+of their own (test_report_envelope.py, test_report_files.py, test_report_compare.py).
 """
 
 from __future__ import annotations
 
+import hashlib
 import html
 import math
 import time
@@ -36,6 +40,9 @@ class Page(HTMLParser):
     def __init__(self, text: str):
         super().__init__(convert_charrefs=True)
         self.images: list[str] = []
+        self.scripts: list[dict] = []
+        self.plots: list[str] = []  # the ids of the interactive plots' elements
+        self.links: list[str] = []
         self.rows: list[list[str]] = []
         self.open: list[str] = []
         self.errors: list[str] = []
@@ -50,6 +57,12 @@ class Page(HTMLParser):
     def handle_starttag(self, tag, attrs):
         if tag == "img":
             self.images.append(dict(attrs)["src"])
+        if tag == "script":
+            self.scripts.append(dict(attrs))
+        if tag == "div" and "plotly-graph-div" in (dict(attrs).get("class") or ""):
+            self.plots.append(dict(attrs)["id"])
+        if tag == "link":
+            self.links.append(dict(attrs).get("href", ""))
         if tag == "tr":
             self.rows.append([])
         if tag in ("td", "th"):
@@ -72,6 +85,12 @@ class Page(HTMLParser):
 
     def row(self, first: str) -> list[str]:
         return next(r for r in self.rows if r and r[0] == first)
+
+
+def without_library(text: str) -> str:
+    """The page without the inlined plotly.js (the first script): the rest is pendfmu's."""
+    start = text.index("<script")
+    return text[:start] + text[text.index("</script>", start) + len("</script>"):]
 
 
 def experiment(name: str, signal: str, resolution: float | None, n: int = 300) -> ExperimentFit:
@@ -159,24 +178,26 @@ def report(request, reports):
     return reports[request.param]
 
 
-def test_report_is_index_html_with_the_pngs_it_shows(report):
+def test_report_is_index_html_with_a_plot_per_recording_and_the_pngs_it_shows(report):
     fitted, index, _, page = report
     assert index.name == "index.html"
-    assert len(page.images) >= len(fitted.experiments)
+    assert page.plots == [f"fit-{k:02d}" for k in range(1, len(fitted.experiments) + 1)]
     for source in page.images:
         path = index.parent / source
         assert path.parent == index.parent, "figures lie beside the page"
         assert path.read_bytes()[:8] == PNG_MAGIC
 
 
-def test_page_is_well_formed_html5_without_scripts_or_network(report):
+def test_page_is_well_formed_html5_and_needs_no_network(report):
+    """plotly.js is inlined: no script, style sheet or image is loaded from anywhere."""
     _, _, text, page = report
     assert page.doctype.lower() == "doctype html"
     assert not page.errors and not page.open
     assert '<meta charset="utf-8">' in text and "<title>" in text and '<html lang="en">' in text
-    lowered = text.lower()
-    assert "<script" not in lowered and "http://" not in lowered and "https://" not in lowered
-    assert "<link" not in lowered and "@import" not in lowered
+    assert page.scripts and not any("src" in attributes for attributes in page.scripts)
+    assert not page.links and "@import" not in text.split("<script", 1)[0]
+    assert all(not source.startswith(("http:", "https:", "//")) for source in page.images)
+    assert "<noscript>" in text  # what a reader without JavaScript is told
 
 
 def test_every_estimate_label_and_flag_appears_escaped(report):
@@ -207,10 +228,10 @@ def test_missing_and_nan_stderr_render_as_a_dash(reports):
 
 def test_markup_in_names_notes_and_flags_is_escaped(reports):
     _, index, text, _ = reports["pendulum"]
+    text = without_library(text)  # plotly.js's own code has markup in its strings
     assert STRANGE not in text and html.escape(STRANGE) in text
-    assert "run <1>" not in text and "<markup>" not in text and "<script>" not in text
-    assert "run &lt;1&gt; &amp; co $\\frac{$" in text  # and the figure's title shows it, not TeX
-    assert (index.parent / "fit-01-run_1_co_frac.png").exists()  # file names are made safe too
+    assert "run <1>" not in text and "<markup>" not in text and "<script>alert" not in text
+    assert "<h3>run &lt;1&gt; &amp; co $\\frac{$</h3>" in text  # the plot's heading shows it as typed
 
 
 def test_friction_curve_figures_follow_the_fitted_joints(report):
@@ -233,7 +254,9 @@ def test_friction_curve_shades_a_bounded_stiction_and_draws_the_spike():
 def test_known_parameters_table_and_rms_in_sensor_steps(reports):
     page = reports["cart"][3]
     known = page.row("m_c")
-    assert known[1:3] == ["3", "kg"] and "Cart" in known[3]
+    header = next(r for r in page.rows if r and r[0] == "name" and "FMU" in r)
+    assert [known[header.index(c)] for c in ("value", "unit")] == ["3", "kg"]
+    assert "Cart" in known[header.index("FMU")]
     header = next(r for r in page.rows if r and r[0] == "recording")
     startup = next(r for r in page.rows if r[:2] == ["cart-startup", "x"])
     assert 0.1 < float(startup[header.index("RMS error [steps]")]) < 0.5  # rounding: ~0.29 steps
@@ -258,8 +281,7 @@ def test_report_of_a_real_current_fit(tmp_path):
     assert time.perf_counter() - started < 20
     text = index.read_text(encoding="utf-8")
     page = Page(text)
-    assert page.images == ["fit-01-current.png"]
-    assert (index.parent / "fit-01-current.png").read_bytes()[:8] == PNG_MAGIC
+    assert page.images == [] and page.plots == ["fit-01"]
     assert fitted.experiments[0].resolution == {"I": pytest.approx(20 / 4096)}
     header = next(r for r in page.rows if r and r[0] == "recording")
     row = next(r for r in page.rows if r[:2] == ["current", "I"])
@@ -267,3 +289,16 @@ def test_report_of_a_real_current_fit(tmp_path):
     assert 0.2 < steps_rms < 10  # noise, ripple and quantization, a few ADC steps at most
     for label in ("T_i", "dIdt_max"):
         assert page.row(label)[2] in ("s", "A/s")
+    # the cost explained: one signal, so the RMS of the scaled residuals from the cost
+    # (sqrt(2 cost / N)) is that signal's RMS error over its error scale, from the arrays
+    summary = next(r for r in page.rows if r and r[0] == "current" and len(r) == 6)
+    from_cost = float(summary[2])
+    from_arrays = float(row[header.index("RMS error [σ]")])
+    assert from_cost == pytest.approx(from_arrays, rel=2e-3)
+    # provenance: the recording's sha256 as hashlib computes it, the seed, the free set
+    csv = tmp_path / "rig" / "current.csv"
+    assert hashlib.sha256(csv.read_bytes()).hexdigest() in text
+    assert "Provenance" in text and page.row("seed")[1] == "1"
+    bounds = fitted.provenance["stages"]["current"]["bounds"]["T_i"]
+    free = next(r for r in page.rows if r and r[0] == "T_i" and len(r) == 4)  # free parameter, start, bounds, unit
+    assert free[2] == f"[{bounds[0]:.4g}, {bounds[1]:.4g}]" and free[3] == "s"

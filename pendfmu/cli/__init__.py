@@ -15,13 +15,13 @@ import traceback
 from collections.abc import Sequence
 
 from pendfmu import __version__
-from pendfmu.cli import build, check, demo, export, fit, rig, simulate, system
+from pendfmu.cli import build, check, demo, export, fit, report, rig, simulate, system
 from pendfmu.cli.argv import untangle
 from pendfmu.errors import EXIT_BAD_INPUT, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, FMUError, Suspicious
 from pendfmu.suggest import did_you_mean
 
 SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export,
-               "system": system, "check": check}
+               "system": system, "check": check, "report": report}
 
 
 # Words a subcommand takes as positionals, so that a list option before them stops there
@@ -68,7 +68,8 @@ def _unknown_options(extras: list[str], parser: argparse.ArgumentParser, command
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    flags, words = untangle(sys.argv[1:] if argv is None else argv, parser, POSITIONAL_WORDS)
+    typed = list(sys.argv[1:] if argv is None else argv)
+    flags, words = untangle(typed, parser, POSITIONAL_WORDS)
     if not [w for w in words if w not in ("-h", "--help", "--version")] and not ({"-h", "--help", "--version"} & set(words)):
         parser.print_help()  # bare `pendfmu`: what it can do, not an error
         return 0
@@ -87,6 +88,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.error(f"give a command: {', '.join(SUBCOMMANDS)}")
     args.debug = args.debug or "--debug" in flags
+    args.command_line = ["pendfmu", *typed]  # a result's provenance: as the user typed it
     try:
         return args.run(args) or 0
     except BadInput as error:

@@ -109,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
     from pendfmu.fitting.ripple import fit_current
     from pendfmu.fitting.models import checked_values
     from pendfmu.fitting.optimizer import GlobalOptions
+    from pendfmu.fitting.provenance import with_command
     from pendfmu.parameters import read_parameters, write_parameters
     from pendfmu.recording.windows import parse_window
 
@@ -171,6 +172,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"interrupted: best values so far in {args.out}; resume with the same command and --resume "
               f"(checkpoint {path})")
         return 130
+    result.provenance = with_command(result.provenance, getattr(args, "command_line", None))
     result.write_json(args.out)
     if path.exists():
         path.unlink()  # the fit is complete: its checkpoint has served

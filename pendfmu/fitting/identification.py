@@ -24,6 +24,7 @@ from pendfmu.fitting.models import (checked_values, initial_map, load_model, map
 from pendfmu.fitting.optimizer import GlobalOptions, optimize
 from pendfmu.fitting.plausibility import SuspiciousData, check_experiment, self_locking_switch, viscous_twins
 from pendfmu.fitting.progress import Progress
+from pendfmu.fitting.provenance import fit_record
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.fitting.result import ExperimentFit, FitResult, flag_warnings, nrmse
 from pendfmu.components import rig_defaults
@@ -255,10 +256,13 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
     final = {**values, **fitted}
     warnings += flag_warnings(estimates)
     warnings += [note for note in notes if note.startswith("the local refinement stopped")]
+    model_file = None if preset or isinstance(model, Model) else str(model)
+    origin = fit_record(stage, [e.recording for e in experiments], seed, free_parameters,
+                        physical(free_parameters, u0), values, cost, model_file)
     return FitResult(stage, final, estimates, correlation, 0.5 * float(outcome.residual @ outcome.residual),
                      nrmse(fits), outcome.nfev, outcome.failures, outcome.seconds, fits, initial_states, notes,
                      warnings=warnings, uncertainty=assessed.summary, replicates=assessed.replicates,
-                     model=None if preset or isinstance(model, Model) else str(model))
+                     model=model_file, provenance=origin)
 
 
 DRIFT_RATIO = 10.0
@@ -300,7 +304,24 @@ def _experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]
         resolution = {name: step for name in recorded if (step := experiment.recording.resolution(name))}
         fits.append(ExperimentFit(experiment.name, experiment.time, recorded,
                                   {column: simulated[output] for output, column in experiment.match.items()},
-                                  resolution))
+                                  resolution, dict(experiment.scales), _used(residuals, u, experiment),
+                                  _overrides(experiment, residuals.shared)))
     return fits
+
+
+def _used(residuals: Residuals, u: np.ndarray, experiment: Experiment) -> dict[str, float]:
+    """The values one recording ran with, of the parameters its model has (a stage's model
+    is one or two components; the rig's other values are carried along but never used),
+    the fit's free ones and any its sidecar sets."""
+    names = {*experiment.model.names("parameter"), *(p.name for p in residuals.free), *experiment.recording.parameters}
+    return {name: float(value) for name, value in residuals.values(u, experiment).items() if name in names}
+
+
+def _overrides(experiment: Experiment, shared: Mapping[str, float]) -> dict[str, float]:
+    """The values one recording sets for itself: its sidecar's parameters, and whatever
+    else (its initial states) differs from the values shared by all recordings."""
+    names = set(experiment.recording.parameters)
+    names |= {name for name, value in experiment.fixed.items() if shared.get(name) != value}
+    return {name: float(experiment.fixed[name]) for name in sorted(names) if name in experiment.fixed}
 
 

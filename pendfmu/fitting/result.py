@@ -52,6 +52,13 @@ class ExperimentFit:
     recorded: dict[str, np.ndarray]
     simulated: dict[str, np.ndarray]
     resolution: dict[str, float] = field(default_factory=dict)  # quantization step per recorded signal, if stated
+    scale: dict[str, float] = field(default_factory=dict)  # the error scale (noise sigma) the cost divides by
+    values: dict[str, float] = field(default_factory=dict)  # every parameter value this recording ran with
+    overrides: dict[str, float] = field(default_factory=dict)  # what its sidecar set (parameters, initial states)
+    # the RMS error per signal over every sample, when time/recorded/simulated are a
+    # display envelope (a result read back from its file): the envelope's own RMS is not it
+    rms: dict[str, float] = field(default_factory=dict)
+    samples: int | None = None  # the recording's samples, when the arrays hold fewer
 
 
 @dataclass
@@ -78,6 +85,11 @@ class FitResult:
     model: str | None = None  # a user's FMU or SSP file (None: pendfmu's own components)
     # per bootstrap replicate, the stage's fitted values (not written: later stages take them)
     replicates: list[dict[str, float]] = field(default_factory=list, repr=False)
+    # where it came from (fitting/provenance.py): inputs with sha256, seed, bounds, start
+    # values, free and fixed sets, versions, date, command line
+    provenance: dict = field(default_factory=dict)
+    # the recordings predicted with the result but not fitted (fit_all: x and phi together)
+    predicted: list[ExperimentFit] = field(default_factory=list)
 
     @property
     def stderr(self) -> dict[str, float | None]:
@@ -108,6 +120,11 @@ class FitResult:
                     "failures": self.failures, "seconds": self.seconds, "notes": self.notes,
                     "warnings": self.warnings, "uncertainty": self.uncertainty, "validation": self.validation,
                     **({"model": self.model} if self.model else {})},
+            "provenance": self.provenance,
+            # per recording the values it ran with and its signals, long ones as their
+            # display envelope (report/envelope.py): enough to re-render and compare reports
+            "recordings": [experiment_dict(e) for e in self.experiments],
+            "predicted": [experiment_dict(e) for e in self.predicted],
         }
 
     def write_json(self, path: str | Path) -> Path:
@@ -130,6 +147,102 @@ class FitResult:
         from pendfmu.export import export_all
 
         return export_all(self.parameters, directory)
+
+
+def experiment_dict(fit: ExperimentFit) -> dict:
+    """One recording's fit for the result file: long signals reduced to their envelope,
+    with the RMS error of every sample kept beside it; a missing sample (NaN) is null."""
+    from pendfmu.report.envelope import envelope_indices
+
+    signals = list(fit.recorded)
+    residuals = [np.asarray(fit.recorded[s], float) - np.asarray(fit.simulated[s], float) for s in signals]
+    arrays = [np.asarray(fit.recorded[s], float) for s in signals] + [np.asarray(fit.simulated[s], float)
+                                                                       for s in signals] + residuals
+    reduced = fit.samples is not None and len(fit.time) < fit.samples  # read back: already its envelope
+    index = envelope_indices(arrays) if arrays and not reduced else np.arange(len(fit.time))
+    rms = {s: (fit.rms[s] if s in fit.rms else _rms(r)) for s, r in zip(signals, residuals)}
+    return {"name": fit.name, "samples": fit.samples or len(fit.time), "time": _json_array(fit.time, index),
+            "recorded": {s: _json_array(fit.recorded[s], index) for s in signals},
+            "simulated": {s: _json_array(fit.simulated[s], index) for s in signals},
+            "resolution": dict(fit.resolution), "scale": dict(fit.scale), "rms": rms,
+            "values": dict(fit.values), "overrides": dict(fit.overrides)}
+
+
+def _rms(residual: np.ndarray) -> float | None:
+    present = residual[np.isfinite(residual)]
+    return float(np.sqrt(np.mean(present**2))) if present.size else None
+
+
+def _json_array(values, index: np.ndarray) -> list[float | None]:
+    return [float(v) if math.isfinite(v) else None for v in np.asarray(values, float)[index]]
+
+
+def _array(values) -> np.ndarray:
+    return np.array([math.nan if v is None else v for v in values], float)
+
+
+def _experiment_from(entry: dict) -> ExperimentFit:
+    return ExperimentFit(
+        entry["name"], _array(entry["time"]), {s: _array(v) for s, v in entry["recorded"].items()},
+        {s: _array(v) for s, v in entry["simulated"].items()}, dict(entry.get("resolution", {})),
+        dict(entry.get("scale", {})), dict(entry.get("values", {})), dict(entry.get("overrides", {})),
+        {s: v for s, v in entry.get("rms", {}).items() if v is not None}, entry.get("samples"))
+
+
+def read_result(path: str | Path) -> FitResult:
+    """A result file (write_json) read back. Files written before provenance and
+    recordings were stored read as results without them; per-recording estimates
+    (phi0[run1]), whose intervals the file does not keep, come back without intervals."""
+    from pendfmu.errors import BadInput
+
+    path = Path(path)
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as error:
+        raise BadInput(f"{path}: cannot read the result file ({error.strerror})") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise BadInput(f"{path}: not a result file (not valid JSON: {error})") from None
+    if not isinstance(document, dict) or not isinstance(document.get("parameters"), dict) \
+            or not isinstance(document.get("fit"), dict) or "stage" not in document["fit"]:
+        raise BadInput(f'{path}: not a result file of pendfmu fit (expected "parameters" and "fit" with a "stage")')
+    try:
+        return _result_from(document)
+    except (KeyError, TypeError, ValueError) as error:
+        raise BadInput(f"{path}: a result file with a malformed entry ({type(error).__name__}: {error})") from None
+
+
+def _result_from(document: dict) -> FitResult:
+    fit = document["fit"]
+    flags = document.get("flags", {})
+    methods = document.get("interval_method", {})
+    estimates = {}
+    for label, stderr in document.get("stderr", {}).items():
+        interval = document.get("ci95", {}).get(label)
+        ci95 = None if interval is None else (-math.inf if interval[0] is None else float(interval[0]),
+                                              math.inf if interval[1] is None else float(interval[1]))
+        value = document["parameters"].get(label)
+        estimates[label] = Estimate(label, math.nan if value is None else float(value), stderr, ci95,
+                                    math.nan, math.nan, list(flags.get(label, [])), methods.get(label, "jacobian"))
+    for recording, states in document.get("initial", {}).items():  # per-recording estimates: values only
+        for name, value in states.items():
+            label = f"{name}[{recording}]"
+            estimates[label] = Estimate(label, float(value), None, None, math.nan, math.nan,
+                                        list(flags.get(label, [])), "none")
+    for label, label_flags in flags.items():  # a flagged estimate whose value the file does not hold
+        estimates.setdefault(label, Estimate(label, math.nan, None, None, math.nan, math.nan, list(label_flags),
+                                             "none"))
+    for stage in document.get("provenance", {}).get("stages", {}).values():
+        for label, (low, high) in stage.get("bounds", {}).items():
+            if label in estimates:
+                estimates[label].low, estimates[label].high = low, high
+    return FitResult(
+        fit["stage"], dict(document["parameters"]), estimates, document.get("correlation", {}),
+        fit.get("cost", math.nan), fit.get("nrmse", {}), fit.get("nfev", 0), fit.get("failures", 0),
+        fit.get("seconds", math.nan), [_experiment_from(e) for e in document.get("recordings", [])],
+        document.get("initial", {}), list(fit.get("notes", [])), fit.get("validation", {}),
+        list(fit.get("warnings", [])), fit.get("uncertainty", {}), fit.get("model"),
+        provenance=document.get("provenance", {}),
+        predicted=[_experiment_from(e) for e in document.get("predicted", [])])
 
 
 def _json_interval(interval: tuple[float, float] | None) -> list[float | None] | None:

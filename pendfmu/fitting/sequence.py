@@ -17,7 +17,9 @@ from pendfmu.fitting.checkpoint import Checkpoint
 from pendfmu.fitting.identification import _recordings, fit
 from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.fitting.plausibility import SuspiciousData, check_experiment
-from pendfmu.fitting.result import FitResult
+from pendfmu.fitting.experiment import signal_scale
+from pendfmu.fitting.provenance import merged
+from pendfmu.fitting.result import ExperimentFit, FitResult
 from pendfmu.fitting.ripple import fit_current
 from pendfmu.fitting.stages import STAGES, make_experiment
 from pendfmu.fitting.uncertainty import REPLICATES
@@ -117,19 +119,40 @@ def predict(parameters: Mapping[str, float], recordings: Sequence[Recording]) ->
     """Simulate the whole rig for recordings that were not fitted (the coupled and
     bang-bang experiments) and measure the prediction error of x and phi, in the signal's
     unit and in sensor steps where the sidecar gives the resolution."""
-    from pendfmu.simulator.rig import simulate_recording
+    return prediction_errors(predicted_fits(parameters, recordings))
 
-    errors: dict[str, dict[str, float]] = {}
+
+def predicted_fits(parameters: Mapping[str, float], recordings: Sequence[Recording]) -> list[ExperimentFit]:
+    """The recordings not fitted, simulated as a whole rig with `parameters`: recorded
+    against predicted x and phi, with the values each ran with, for the report."""
+    from pendfmu.simulator.rig import experiment_parameters, simulate_recording
+
+    fits = []
     for recording in recordings:
         simulated = simulate_recording(parameters, recording)
+        names = [name for name in ("x", "phi") if name in recording.signals]
+        values = experiment_parameters(parameters, recording)
+        overrides = {k: float(v) for k, v in values.items()
+                     if k in recording.parameters or parameters.get(k) != v}
+        fits.append(ExperimentFit(
+            recording.path.stem, recording.time, {n: recording.signal(n) for n in names},
+            {n: simulated[n].to_numpy() for n in names},
+            {n: step for n in names if (step := recording.resolution(n))},
+            {n: signal_scale(recording, n) for n in names}, values, overrides))
+    return fits
+
+
+def prediction_errors(fits: Sequence[ExperimentFit]) -> dict[str, dict[str, float]]:
+    """Per predicted recording, "<signal>_rms" and, with a stated resolution, "<signal>_rms_steps"."""
+    errors: dict[str, dict[str, float]] = {}
+    for prediction in fits:
         entry = {}
-        for name in ("x", "phi"):
-            if name in recording.signals:
-                rms = float(np.sqrt(np.mean((simulated[name].to_numpy() - recording.signal(name)) ** 2)))
-                entry[f"{name}_rms"] = rms
-                if recording.resolution(name):
-                    entry[f"{name}_rms_steps"] = rms / recording.resolution(name)
-        errors[recording.path.stem] = entry
+        for name, recorded in prediction.recorded.items():
+            rms = float(np.sqrt(np.mean((prediction.simulated[name] - recorded) ** 2)))
+            entry[f"{name}_rms"] = rms
+            if prediction.resolution.get(name):
+                entry[f"{name}_rms_steps"] = rms / prediction.resolution[name]
+        errors[prediction.name] = entry
     return errors
 
 
@@ -143,8 +166,10 @@ def _combine(results: list[FitResult], values: dict[str, float], validation: lis
         [f"{r.stage}: {n}" for r in results for n in r.notes],
         warnings=[f"{r.stage}: {w}" for r in results for w in r.warnings],
         uncertainty={r.stage: r.uncertainty for r in results})
+    combined.provenance = merged([r.provenance for r in results if r.provenance], validation)
     if validation:
-        combined.validation = predict(values, validation)
+        combined.predicted = predicted_fits(values, validation)
+        combined.validation = prediction_errors(combined.predicted)
         combined.notes.append("predicted, not fitted (recordings with both x and phi): "
                               + ", ".join(r.path.name for r in validation))
     return combined

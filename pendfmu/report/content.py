@@ -80,21 +80,111 @@ class SignalError:
     signal: str
     rms: float
     resolution: float | None  # the sensor step, when the recording states it
+    scale: float | None = None  # the error scale the fit divided by (noise and quantization)
 
     @property
     def steps(self) -> float | None:
         return self.rms / self.resolution if self.resolution else None
 
+    @property
+    def sigmas(self) -> float | None:
+        """The RMS error in units of the error scale: about 1 for a fit as good as the
+        sensor allows; this is what the cost sums (squared, halved, over every sample)."""
+        return self.rms / self.scale if self.scale else None
+
 
 def signal_errors(fit: ExperimentFit) -> list[SignalError]:
     """RMS error per fitted signal of one recording: the per-experiment counterpart of
-    the pooled nrmse, in the signal's own unit so it can be compared with the sensor."""
+    the pooled nrmse, in the signal's own unit so it can be compared with the sensor.
+    Missing samples (NaN) have no error; a result read back from its file keeps the RMS
+    of every sample (`fit.rms`), its arrays being only their envelope."""
     errors = []
     for name, recorded in fit.recorded.items():
-        residual = np.asarray(recorded, float) - np.asarray(fit.simulated[name], float)
-        rms = float(np.sqrt(np.mean(residual**2))) if residual.size else math.nan
-        errors.append(SignalError(fit.name, name, rms, (getattr(fit, "resolution", None) or {}).get(name)))
+        if name in fit.rms:
+            rms = float(fit.rms[name])
+        else:
+            residual = np.asarray(recorded, float) - np.asarray(fit.simulated[name], float)
+            residual = residual[np.isfinite(residual)]
+            rms = float(np.sqrt(np.mean(residual**2))) if residual.size else math.nan
+        errors.append(SignalError(fit.name, name, rms, (fit.resolution or {}).get(name), (fit.scale or {}).get(name)))
     return errors
+
+
+COST_DEFINITION = (
+    "The cost is ½ Σ r², summed over every fitted sample of every recording, where r is the "
+    "residual (simulated − recorded) divided by its signal's error scale σ = √(noise² + step²/12) "
+    "(sensor noise and quantization from the sidecar, or the spread of the signal's sample-to-sample "
+    "differences where it states neither). A fit as good as the sensors allow has r of spread 1, so "
+    "a cost of about half the number of samples; the RMS of r below says how many times the noise "
+    "the fit misses by.")
+
+
+def fitted_samples(result: FitResult) -> int:
+    """The samples the cost sums over: every fitted signal's samples of every recording."""
+    return sum((fit.samples or len(fit.time)) * len(fit.recorded) for fit in result.experiments)
+
+
+def scaled_rms(result: FitResult) -> float | None:
+    """The RMS of the scaled residuals r (cost = ½ Σ r²): √(2 cost / N) over the samples of
+    the fitted recordings; None when they are not known. (With --cost quantized, r is the
+    distance beyond each reading's step, so this is smaller than the RMS errors in σ.)"""
+    samples = fitted_samples(result)
+    if not samples or not finite(result.cost):
+        return None
+    return math.sqrt(2.0 * float(result.cost) / samples)
+
+
+@dataclass(frozen=True)
+class RecordingValue:
+    """One parameter value one recording ran with, and why it differs (if it does)."""
+
+    value: float | None
+    overridden: bool  # set by the recording's sidecar (or its own initial state)
+    fitted: bool  # estimated for this recording alone (phi0[run1])
+
+    def differs(self, known: float | None) -> bool:
+        return self.value is not None and known is not None and not _same(self.value, known)
+
+
+def _same(a: float, b: float) -> bool:
+    return a == b or (math.isfinite(a) and math.isfinite(b) and math.isclose(a, b, rel_tol=1e-12, abs_tol=0.0))
+
+
+def recording_values(result: FitResult) -> tuple[list[ExperimentFit], dict[str, dict[str, RecordingValue]]]:
+    """(recordings, name -> recording name -> value) for every parameter that some
+    recording ran with at a value other than the result's (a sidecar's m_p = 0, its own
+    release angle), or that a sidecar or a per-recording estimate sets. Parameters every
+    recording ran with at the result's value are left out: the known-values table shows them."""
+    fits = [*result.experiments, *result.predicted]
+    entries: dict[str, dict[str, RecordingValue]] = {}
+    for fit in fits:
+        values = {**fit.values, **result.initial.get(fit.name, {})}
+        for name, value in values.items():
+            own = f"{name}[{fit.name}]" in result.estimates
+            entries.setdefault(name, {})[fit.name] = RecordingValue(float(value), name in fit.overrides, own)
+    shown = {name: row for name, row in entries.items()
+             if any(v.overridden or v.fitted or v.differs(result.parameters.get(name)) for v in row.values())}
+    missing = RecordingValue(None, False, False)  # a parameter this recording's model does not have
+    return fits, {name: {fit.name: shown[name].get(fit.name, missing) for fit in fits} for name in sorted(shown)}
+
+
+def ran_with(result: FitResult, name: str) -> str:
+    """What the recordings ran with for a known parameter, when some differ from the
+    result's value: e.g. "0 in 3 of 3 recordings (sidecar)"; "" when all agree or the
+    result does not say (a file written before per-recording values were kept)."""
+    fits = [f for f in [*result.experiments, *result.predicted] if name in f.values]
+    known = result.parameters.get(name)
+    if not fits or known is None:
+        return ""
+    different: dict[float, list[ExperimentFit]] = {}
+    for fit in fits:
+        if not _same(float(fit.values[name]), float(known)):
+            different.setdefault(float(fit.values[name]), []).append(fit)
+    parts = []
+    for value, which in different.items():
+        sidecar = " (sidecar)" if all(name in f.overrides for f in which) else ""
+        parts.append(f"{value:.6g} in {len(which)} of {len(fits)} recordings{sidecar}")
+    return "; ".join(parts)
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""The report's PNG figures: recorded against simulated signals, and friction curves.
+"""The report's PNG figures: the identified friction curves (the recordings are interactive.py's).
 
 Figures are drawn on bare matplotlib ``Figure`` objects (the Agg canvas), never through
 pyplot: a report written from a server, a test or a thread must not depend on, or
@@ -9,7 +9,6 @@ saved.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,17 +16,12 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from pendfmu.report.content import (Joint, bounded_only, fitted_joints, friction_values, interval_text,
-                                    signal_errors, unit)
-from pendfmu.fitting.result import ExperimentFit, FitResult
+from pendfmu.report.content import Joint, bounded_only, fitted_joints, friction_values, interval_text, unit
+from pendfmu.fitting.result import FitResult
 
-RECORDED = "#555555"
-RECORDED_WIDE = "#a8a8a8"
 SIMULATED = "#d62728"
 STICTION = "#1f77b4"
 DPI = 110
-ENVELOPE_ABOVE = 2000  # residuals longer than this are drawn as a per-bin envelope
-ENVELOPE_BINS = 400
 
 
 @dataclass(frozen=True)
@@ -39,13 +33,10 @@ class Picture:
     caption: str
 
 
-def write_figures(result: FitResult, directory: Path) -> tuple[list[Picture], list[Picture]]:
-    """Every figure of the report: (one per recording, one per identified friction curve)."""
-    experiments = []
-    for number, fit in enumerate(result.experiments, 1):
-        file = f"fit-{number:02d}-{_slug(fit.name)}.png"
-        _save(experiment_figure(fit), directory / file)
-        experiments.append(Picture(file, fit.name, "recorded and simulated signals, residual below"))
+def write_friction_figures(result: FitResult, directory: Path) -> list[Picture]:
+    """One PNG per identified friction curve. Static on purpose: the friction law is one
+    small figure that needs no zoom, and as an image it shows where JavaScript does not
+    run (a mail client, a locked-down viewer)."""
     friction = []
     for joint in fitted_joints(result):
         if not all(math.isfinite(v) for v in friction_values(result, joint)):
@@ -54,18 +45,7 @@ def write_figures(result: FitResult, directory: Path) -> tuple[list[Picture], li
         _save(friction_figure(result, joint), directory / file)
         friction.append(Picture(file, f"{joint.name} friction",
                                 f"identified friction law of the {joint.name} ({', '.join(joint.parameters)})"))
-    return experiments, friction
-
-
-def _slug(name: str) -> str:
-    """A file-name-safe form of a recording's name (names come from users' files)."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._")[:60] or "recording"
-
-
-def _literal(text: str) -> str:
-    """A user's name shown as typed: matplotlib reads text between two $ as TeX math,
-    which mangles a file name like "run$1$" or fails on one that is not valid TeX."""
-    return text.replace("$", r"\$")
+    return friction
 
 
 def _save(figure: Figure, path: Path) -> None:
@@ -73,99 +53,8 @@ def _save(figure: Figure, path: Path) -> None:
     figure.savefig(path, dpi=DPI)
 
 
-def _quantized(recorded: np.ndarray, resolution: float | None) -> bool:
-    """Draw a recording as steps when it is a sensor's quantized reading: stated by its
-    sidecar, or evident from few distinct levels (an encoder without a sidecar)."""
-    return bool(resolution) or (recorded.size > 20 and np.unique(recorded).size < 0.5 * recorded.size)
-
-
-def experiment_figure(fit: ExperimentFit) -> Figure:
-    """For each fitted signal: recorded vs simulated on top, the residual below it.
-
-    The residual axis carries the sensor's steps on its right side and the quantization
-    interval (±half a step) as a band: a residual inside the band is as good as the
-    sensor can tell."""
-    errors = {e.signal: e for e in signal_errors(fit)}
-    names = list(fit.recorded)
-    figure = Figure(figsize=(9.0, 4.2 * max(len(names), 1)), layout="constrained")
-    grid = figure.add_gridspec(2 * max(len(names), 1), 1, height_ratios=[3, 1.4] * max(len(names), 1))
-    time = np.asarray(fit.time, float)
-    for k, name in enumerate(names):
-        recorded = np.asarray(fit.recorded[name], float)
-        simulated = np.asarray(fit.simulated[name], float)
-        error = errors[name]
-        top = figure.add_subplot(grid[2 * k])
-        bottom = figure.add_subplot(grid[2 * k + 1], sharex=top)
-        steps = _quantized(recorded, error.resolution)
-        # The recording wide and light under the simulation: where they agree, both show.
-        top.plot(time, recorded, color=RECORDED_WIDE, lw=3.0, drawstyle="steps-post" if steps else "default",
-                 label=f"recorded {name}" + (" (quantized)" if steps else ""))
-        top.plot(time, simulated, color=SIMULATED, lw=1.0, label=f"simulated {name}")
-        top.set_ylabel(_axis_label(name, unit(name)))
-        top.legend(loc="best", fontsize="small")
-        top.grid(alpha=0.3)
-        top.tick_params(labelbottom=False)
-        top.set_title(f"{_literal(fit.name)}: {name}, RMS error {_rms_text(error, unit(name))}", fontsize="medium")
-        _residual_axis(bottom, time, recorded - simulated, name, error.resolution)
-    if not names:
-        figure.text(0.5, 0.5, f"{_literal(fit.name)}: no fitted signals", ha="center")
-    return figure
-
-
-def _residual_axis(axis, time: np.ndarray, residual: np.ndarray, name: str, resolution: float | None) -> None:
-    factor, residual_unit = _prefixed(residual, unit(name))
-    residual = residual * factor
-    if resolution:
-        step = resolution * factor
-        axis.axhspan(-step / 2, step / 2, color=STICTION, alpha=0.15, lw=0, label="± half a sensor step")
-        steps = axis.secondary_yaxis("right", functions=(lambda r: r / step, lambda s: s * step))
-        steps.set_ylabel("sensor steps")
-    if residual.size > ENVELOPE_ABOVE:
-        _envelope(axis, time, residual)
-    else:
-        axis.plot(time, residual, color=RECORDED, lw=0.8)
-    axis.axhline(0.0, color="black", lw=0.6)
-    axis.set_ylabel(_axis_label("residual", residual_unit))
-    if axis.get_legend_handles_labels()[0]:
-        axis.legend(loc="upper right", fontsize="x-small", ncols=3)
-    axis.set_xlabel("time [s]")
-    axis.grid(alpha=0.3)
-
-
-PREFIXES = {-3: "m", -6: "µ", -9: "n"}
-PREFIXABLE = {"m", "rad", "A", "N", "N.m", "s"}
-
-
-def _prefixed(values: np.ndarray, unit_: str) -> tuple[float, str]:
-    """(factor, unit) that show small residuals as plain numbers, 2.5 µm rather than an
-    axis of 2.5 under a detached "1e-6" that collides with the plot above."""
-    largest = float(np.max(np.abs(values))) if values.size else 0.0
-    if unit_ not in PREFIXABLE or not math.isfinite(largest) or largest <= 0:
-        return 1.0, unit_
-    exponent = max(-9, min(0, 3 * math.floor(math.log10(largest) / 3)))
-    return (10.0 ** -exponent, PREFIXES[exponent] + unit_) if exponent else (1.0, unit_)
-
-
-def _envelope(axis, time: np.ndarray, residual: np.ndarray) -> None:
-    """A long residual as its range and mean per time bin. Drawn sample by sample, a
-    residual flipping between quantization levels fills the axis with solid ink; the
-    range still shows whether it stays within half a step, the mean shows any drift."""
-    edges = np.linspace(0, residual.size, ENVELOPE_BINS + 1).astype(int)
-    bins = [slice(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
-    middle = np.array([time[b].mean() for b in bins])
-    axis.fill_between(middle, [residual[b].min() for b in bins], [residual[b].max() for b in bins],
-                      color=RECORDED, alpha=0.35, lw=0, label="range per bin")
-    axis.plot(middle, [residual[b].mean() for b in bins], color="black", lw=1.0, label="mean per bin")
-
-
 def _axis_label(name: str, unit_: str) -> str:
     return f"{name} [{unit_}]" if unit_ else name
-
-
-def _rms_text(error, unit_: str) -> str:
-    factor, unit_ = _prefixed(np.array([error.rms]), unit_)
-    text = f"{error.rms * factor:.3g} {unit_}".strip()
-    return f"{text} = {error.steps:.3g} steps" if error.steps is not None else text
 
 
 def friction_figure(result: FitResult, joint: Joint) -> Figure:

@@ -1,0 +1,74 @@
+"""Which files of a report folder pendfmu wrote, so that a new report can remove them.
+
+A report written into a folder that held an earlier one must not show, or leave lying
+beside it, the earlier report's figures (a recording since dropped, a friction curve no
+longer fitted). But the folder may hold files of the user's own (notes, a README, the
+recordings themselves): only what pendfmu wrote may go. Each report therefore lists
+the files it wrote in MANIFEST; the next report removes exactly those (plain names of
+files directly in the folder, nothing else) before writing its own.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Iterable
+from pathlib import Path
+
+MANIFEST = ".pendfmu-report.json"
+KIND = "pendfmu report"
+
+
+def previous_files(directory: Path) -> list[Path]:
+    """The files an earlier report listed in `directory`'s manifest and that are still
+    there; an unreadable or foreign manifest lists none (nothing is removed on a guess)."""
+    try:
+        document = json.loads((directory / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return []
+    if not isinstance(document, dict) or document.get("kind") != KIND or not isinstance(document.get("files"), list):
+        return []
+    found = []
+    for name in document["files"]:
+        # a plain file name only: never a path that leads out of the folder or into a sub-folder
+        if isinstance(name, str) and name and name == Path(name).name and name not in (".", "..", MANIFEST):
+            path = directory / name
+            if path.is_file() and not path.is_symlink():
+                found.append(path)
+    return found
+
+
+LEGACY_FIGURE = re.compile(r"(fit-\d\d-[A-Za-z0-9_.-]*|friction-(cart|pendulum))\.png")
+
+
+def legacy_files(directory: Path) -> list[Path]:
+    """The files of a report pendfmu wrote before it kept a manifest: its index.html (a
+    page titled "pendfmu fit report") and the figures that page shows under the names
+    pendfmu gave them. Anything else stays."""
+    index = directory / "index.html"
+    try:
+        text = index.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return []
+    if "<title>pendfmu fit report" not in text:
+        return []
+    shown = set(re.findall(r'<img src="([^"/\\]+)"', text))
+    figures = [directory / name for name in sorted(shown) if LEGACY_FIGURE.fullmatch(name)]
+    return [index] + [f for f in figures if f.is_file() and not f.is_symlink()]
+
+
+def remove_previous(directory: Path) -> list[Path]:
+    """Remove the files of the report written earlier into `directory`; returns them."""
+    removed = previous_files(directory) if (directory / MANIFEST).exists() else legacy_files(directory)
+    for path in removed:
+        path.unlink()
+    (directory / MANIFEST).unlink(missing_ok=True)
+    return removed
+
+
+def write_manifest(directory: Path, files: Iterable[Path]) -> Path:
+    """List the files this report wrote (names relative to `directory`)."""
+    names = sorted({Path(f).name for f in files})
+    path = directory / MANIFEST
+    path.write_text(json.dumps({"kind": KIND, "files": names}, indent=1) + "\n", encoding="utf-8")
+    return path
