@@ -35,7 +35,12 @@ def test_the_composed_loop_runs_as_the_independent_one(tmp_path):
     code, ssp = write_loop(tmp_path)
     assert code == 0
     system = read_ssp(ssp)
-    assert sorted(str(c) for c in system.connections) == ["Cart.x -> Controller.y", "Controller.u -> Cart.I"]
+    assert sorted(str(c) for c in system.component_connections()) == ["Cart.x -> Controller.y",
+                                                                       "Controller.u -> Cart.I"]
+    # every input no connection feeds is an input of the system, named like the variable
+    assert sorted(str(c) for c in system.connections if c.at_boundary) == [
+        "alpha -> Cart.alpha", "phi -> Cart.phi", "r -> Controller.r", "u -> Cart.u", "u_ff -> Controller.u_ff",
+        "w -> Cart.w"]
     assert system.parameters["Controller"]["n_d"].value == 2 and system.parameters["Controller"]["n_d"].type == "Integer"
     t, r = reference_signal()
     model = load_model(ssp)
@@ -44,6 +49,8 @@ def test_the_composed_loop_runs_as_the_independent_one(tmp_path):
     x, u = python_closed_loop(t, r)
     np.testing.assert_allclose(out["x"], x, rtol=0, atol=TOLERANCE)
     np.testing.assert_allclose(out["u"], u, rtol=0, atol=1e-9)
+    through_system_input = simulate_model(model, recording, {}, drive={"r": "qg"})
+    np.testing.assert_array_equal(through_system_input["x"], out["x"])
 
 
 def test_set_comes_after_params(tmp_path):
