@@ -23,10 +23,13 @@ demo: fmus
 test: fmus tools
 	$(PY) -m pytest
 
-# valgrind for the memcheck test (Debian's package; this kind of machine usually has it)
+# valgrind for the memcheck test (Debian's package; this kind of machine usually has it);
+# libtbb12 for ecos (PyPI ecospy's libecosc.so links it), which runs the rig SSP in tests/test_ssp_tools.py
 tools:
 	@command -v valgrind >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq valgrind; } \
 	  || echo "warning: valgrind could not be installed; the memcheck test will be skipped" >&2
+	@ldconfig -p 2>/dev/null | grep -q 'libtbb\.so\.12' || { apt-get update -qq && apt-get install -y -qq libtbb12; } \
+	  || echo "warning: libtbb12 could not be installed; the ecos tests will be skipped" >&2
 
 clean:
 	rm -rf $(VENV) fmus/*.fmu fmus/build out .pytest_cache
