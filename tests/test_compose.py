@@ -53,6 +53,16 @@ def test_the_composed_loop_runs_as_the_independent_one(tmp_path):
     np.testing.assert_array_equal(through_system_input["x"], out["x"])
 
 
+def test_without_system_connectors_for_ecos_and_libcosim(tmp_path):
+    """The same loop with no system inputs: pendfmu still reads it, its free inputs drivable by name."""
+    code, ssp = write_loop(tmp_path, ["--no-system-connectors"])
+    assert code == 0
+    system = read_ssp(ssp)
+    assert system.connectors == () and len(system.connections) == 2
+    from pendfmu.fitting.models import load_model
+    assert "Controller.r" in load_model(ssp).names("input")
+
+
 def test_set_comes_after_params(tmp_path):
     code, ssp = write_loop(tmp_path, ["--set", "Cart.eta=0.45", "m_c=2.5"])
     assert code == 0

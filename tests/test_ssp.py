@@ -233,6 +233,32 @@ def test_connection_from_input_to_input(written_ssd):
         read_ssd(written_ssd)
 
 
+def test_connection_from_an_unknown_system_connector(written_ssd):
+    written_ssd.write_text(written_ssd.read_text().replace('startConnector="I_c" endElement="CurrentLoop"',
+                                                           'startConnector="I_cmd" endElement="CurrentLoop"'))
+    with pytest.raises(SspError, match="the system has no connector 'I_cmd' \\(its connectors: I_c, I, x") as error:
+        read_ssd(written_ssd)
+    assert error.value.line == _line_of(written_ssd, 'startConnector="I_cmd"')
+
+
+def test_system_output_fed_by_a_component_input(written_ssd):
+    written_ssd.write_text(written_ssd.read_text().replace('startElement="Cart" startConnector="x" endConnector="x"',
+                                                           'startElement="Cart" startConnector="I" endConnector="x"'))
+    with pytest.raises(SspError, match="a component output a system output") as error:
+        read_ssd(written_ssd)
+    assert error.value.line == _line_of(written_ssd, 'startConnector="I" endConnector="x"')
+
+
+def test_system_connector_must_be_an_input_or_output(written_ssd):
+    text = written_ssd.read_text()
+    assert text.index('<ssd:Connector name="I_c" kind="input">') < text.index("<ssd:Elements>")  # the system's
+    written_ssd.write_text(text.replace('<ssd:Connector name="I_c" kind="input">',
+                                        '<ssd:Connector name="I_c" kind="parameter">', 1))
+    with pytest.raises(SspError, match="a system connector is an input or an output") as error:
+        read_ssd(written_ssd)
+    assert error.value.line == _line_of(written_ssd, 'name="I_c" kind="parameter"')
+
+
 def test_schema_invalid_ssd_names_file_line_element(written_ssd):
     written_ssd.write_text(written_ssd.read_text().replace('name="x0" kind="parameter"', 'name="x0" kind="sideways"'))
     with pytest.raises(SspError) as error:
