@@ -102,6 +102,27 @@ def test_ssd_round_trip(fmu_dir, tmp_path):
     assert back.components["Cart"].fmu is None  # FMUs were not copied next to this SSD
 
 
+def test_ssd_as_written_before_system_connectors_still_reads(fmu_dir, tmp_path):
+    """A file of the earlier layout (no system connectors, no annotation on the system) reads
+    as the same rig without its own connectors."""
+    system = rig_system(0.4, fmu_dir, {"m_c": 1.5})
+    written = tmp_path / "SystemStructure.ssd"
+    write_ssd(system, written)
+    root = etree.parse(str(written)).getroot()
+    ssd = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
+    system_el = root.find(f"{ssd}System")
+    for tag in ("Connectors", "Annotations"):
+        system_el.remove(system_el.find(f"{ssd}{tag}"))
+    for connection in list(system_el.iterfind(f"{ssd}Connections/{ssd}Connection")):
+        if connection.get("startElement") is None or connection.get("endElement") is None:
+            connection.getparent().remove(connection)
+    old = tmp_path / "old.ssd"
+    old.write_bytes(etree.tostring(root))
+    back = read_ssd(old)
+    assert back.connectors == () and back.connections == system.component_connections()
+    assert back.parameters == system.parameters and back.components == system.components
+
+
 def test_ssd_binds_one_named_set_per_component(fmu_dir, tmp_path):
     ssd = tmp_path / "SystemStructure.ssd"
     write_ssd(rig_system(0.4, fmu_dir, parameter_set="bench"), ssd)
