@@ -189,8 +189,12 @@ def test_the_rig_ssp_declares_its_inputs_and_outputs_and_omsimulators_system_typ
     import zipfile
 
     system = read_ssp(ssps["given", True])
-    assert [(c.name, c.kind) for c in system.connectors] == [("I_c", "input")] + [(n, "output") for n in OUTPUTS]
-    assert system.boundary("input") == {"I_c": [("CurrentLoop", "I_c")]}
+    assert [(c.name, c.kind) for c in system.connectors][:7] == [("I_c", "input")] + [(n, "output") for n in OUTPUTS]
+    # the Cart's inputs nothing feeds on a self-locking screw are system inputs too (named
+    # apart from the outputs phi and w)
+    assert system.boundary("input") == {"I_c": [("CurrentLoop", "I_c")], "u": [("Cart", "u")],
+                                        "Cart_phi": [("Cart", "phi")], "Cart_w": [("Cart", "w")],
+                                        "alpha": [("Cart", "alpha")]}
     assert system.boundary("output") == {name: [port] for name, port in OUTPUTS.items()}
     with zipfile.ZipFile(ssps["given", True]) as archive:
         root = etree.fromstring(archive.read("SystemStructure.ssd"))
@@ -207,6 +211,25 @@ def test_the_rig_ssp_declares_its_inputs_and_outputs_and_omsimulators_system_typ
     assert sorted(master.attrib) == ["absoluteTolerance", "description", "relativeTolerance", "stepSize"]
     flat = read_ssp(ssps["given", False])  # the variant for ecos and libcosim still reads, as old files do
     assert flat.connectors == () and flat.component_connections() == system.component_connections()
+
+
+@pytest.mark.parametrize("eta", [ETA, 0.7])
+def test_fmpy_resolves_every_connection_as_written(ssps, tmp_path, eta):
+    """fmpy's simulate_ssp wires an input no connection feeds to the source of the input
+    before it (compose.free_inputs); with every input fed, what it resolves is exactly the
+    system's connections, for the self-locking and the back-drivable rig."""
+    needs("fmpy")
+    from fmpy.ssp.simulation import add_path
+    from fmpy.ssp.ssd import get_connections, read_ssd
+
+    system = rig_system(eta, FMUS_DIR, {})
+    ssp = write_ssp(system, tmp_path / "rig.ssp")
+    description = read_ssd(str(ssp))
+    add_path(description.system)
+    resolved = sorted((start.path, end.path) for start, end in get_connections(description.system))
+    written = sorted((".".join(filter(None, (c.start_element, c.start_connector))),
+                      ".".join(filter(None, (c.end_element, c.end_connector)))) for c in system.connections)
+    assert resolved == written
 
 
 def test_pendfmu_simulate_feeds_the_recording_through_the_system_input(tmp_path):

@@ -92,14 +92,18 @@ def compose(components: Mapping[str, str | Path], connections: Sequence[str],
                   description=description or f"{', '.join(parts)} composed by pendfmu", connectors=connectors)
 
 
-def free_inputs(parts: Mapping[str, FmuComponent], wires: Sequence[Connection]
+def free_inputs(parts: Mapping[str, FmuComponent], wires: Sequence[Connection], taken: Sequence[str] = ()
                 ) -> tuple[tuple[Connector, ...], list[Connection]]:
     """A system input for each component input no wire feeds (module docstring), and the
-    connections from them."""
+    connections from them; a name in `taken` (the system's other connectors) is qualified too.
+
+    Why every one: fmpy's simulate_ssp resolves an input no connection feeds to the source
+    of the input before it (0.3.32 keeps the previous loop's start_p): the rig's free Cart.u
+    would silently follow CurrentLoop.I_mean there, or fail when it comes first."""
     fed = {(w.end_element, w.end_connector) for w in wires}
     free = [(n, c) for n, part in parts.items() for c in part.connectors
             if c.kind == "input" and (n, c.name) not in fed]
-    names = [c.name for _, c in free]
+    names = [c.name for _, c in free] + list(taken)
     connectors, boundary = [], []
     for element, connector in free:
         name = connector.name if names.count(connector.name) == 1 else f"{element}_{connector.name}"

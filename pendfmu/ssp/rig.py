@@ -33,9 +33,14 @@ def rig_connections(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> list[Con
     return [Connection.between(start, end) for start, end in pairs]
 
 
-def rig_boundary(components: dict[str, FmuComponent]) -> tuple[tuple[Connector, ...], list[Connection]]:
+def rig_boundary(components: dict[str, FmuComponent], connections: list[Connection]
+                 ) -> tuple[tuple[Connector, ...], list[Connection]]:
     """The system connectors RIG_INPUTS and RIG_OUTPUTS (typed and united like the variables
-    they stand for) and the connections that wire them to the components."""
+    they stand for), then one for every other input no connection feeds (the Cart's command u,
+    and its pendulum inputs on a self-locking screw: named u, Cart_phi, ..., see
+    compose.free_inputs), and the connections that wire them to the components."""
+    from pendfmu.ssp.compose import free_inputs
+
     connectors, wires = [], []
     for kind, pairs in (("input", RIG_INPUTS), ("output", RIG_OUTPUTS)):
         for name, port in pairs:
@@ -43,7 +48,8 @@ def rig_boundary(components: dict[str, FmuComponent]) -> tuple[tuple[Connector, 
             inner = components[element].connector(variable)
             connectors.append(Connector(name, kind, inner.type, inner.unit))
             wires.append(Connection.between(name, port) if kind == "input" else Connection.between(port, name))
-    return tuple(connectors), wires
+    others, other_wires = free_inputs(components, connections + wires, [c.name for c in connectors])
+    return tuple(connectors) + others, wires + other_wires
 
 
 def _targets(key: str, starts: dict[str, dict[str, ParameterValue]]) -> list[tuple[str, str]]:
@@ -106,7 +112,8 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
     """The rig as an SSP system of the FMUs in `fmu_dir` (CurrentLoop.fmu, Cart.fmu, Pendulum.fmu).
 
     The system's own connectors (RIG_INPUTS, RIG_OUTPUTS) take the command current I_c in
-    and give I, x, v, a, phi, w out.
+    and give I, x, v, a, phi, w out; every other input no connection feeds is a system input
+    too (rig_boundary).
     `eta` is the screw efficiency: above SELF_LOCKING_ETA (0.5) the pendulum's phi, w and alpha feed back into
     the cart (5 connections), otherwise only current -> cart -> pendulum (2 connections). A Cart parameter
     `eta_back` in `parameters` overrides that switch (0: self-locking, > 0: back-drivable; README, Drives).
@@ -123,11 +130,12 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
     given = parameters or {}
     eta_back = float(given.get("Cart.eta_back", given.get("eta_back", ETA_BACK_FROM_ETA)))
     kind = "back-drivable" if back_drive_efficiency(eta, eta_back) > 0.0 else "self-locking"
-    connectors, boundary = rig_boundary(components)
+    connections = rig_connections(eta, eta_back)
+    connectors, boundary = rig_boundary(components, connections)
     return System(
         name=name,
         components=components,
-        connections=rig_connections(eta, eta_back) + boundary,
+        connections=connections + boundary,
         connectors=connectors,
         parameters=rig_parameters(eta, parameters, fmus),
         units=units,
