@@ -7,9 +7,11 @@ that differs); and every kind of mistake is an exit 2 naming what is wrong."""
 from __future__ import annotations
 
 import json
+import zipfile
 
 import numpy as np
 import pytest
+from fmpy import read_model_description
 
 from pendfmu.cli import main
 from pendfmu.ssp import read_ssp
@@ -88,3 +90,31 @@ def test_mistakes_are_named(tmp_path, capsys, arguments, message):
         return
     assert code == 2
     assert message in capsys.readouterr().err
+
+
+def test_one_system_input_feeds_every_input_it_is_wired_to(tmp_path):
+    """Two current loops with different time constants behind one system input: a recording's
+    column drives both, each as it does alone (the first-order lag of MODEL.md)."""
+    from pendfmu.fitting.models import load_model, simulate_model
+    from pendfmu.recording import Recording
+    from pendfmu.ssp import Connection, Connector, write_ssp
+    from pendfmu.ssp.compose import compose
+
+    system = compose({"A": "CurrentLoop", "B": "CurrentLoop"}, [], {"A.T_i": 1e-3, "B.T_i": 2e-3}, step_size=1e-4)
+    assert [c.name for c in system.connectors] == ["A_I_c", "B_I_c"]  # the same name in two components
+    system.connectors = (Connector("I_c", "input", "Real", "A"),)
+    system.connections = [Connection.between("I_c", "A.I_c"), Connection.between("I_c", "B.I_c")]
+    ssp = write_ssp(system, tmp_path / "two.ssp")
+    with zipfile.ZipFile(ssp) as archive:  # one packed copy per component, each with its values
+        archive.extractall(tmp_path / "two")
+    for name, tau in (("A", 1e-3), ("B", 2e-3)):
+        description = read_model_description(str(tmp_path / "two" / "resources" / f"{name}.fmu"))
+        assert next(float(v.start) for v in description.modelVariables if v.name == "T_i") == tau
+    model = load_model(ssp)
+    t = np.arange(101) * 1e-4
+    recording = Recording(tmp_path / "step.csv", t, {"I_c": np.where(t > 0, 0.1, 0.0)},
+                          vocabulary=model.vocabulary())
+    out = simulate_model(model, recording, {})
+    for name, tau in (("A.I", 1e-3), ("B.I", 2e-3)):  # slope 0.1/tau < dIdt_max: the plain lag
+        np.testing.assert_allclose(out[name], np.where(t > 0, 0.1 * (1 - np.exp(-(t - 1e-4) / tau)), 0.0),
+                                   rtol=0, atol=2e-3 * 0.1)

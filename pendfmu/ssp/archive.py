@@ -56,21 +56,31 @@ def _own_component(fmu: Path) -> str | None:
     return kind if built.guid == description.guid else None
 
 
-def _pack_fmu(system: System, component: FmuComponent, target: Path) -> None:
-    """Put `component`'s FMU at `target`: pendfmu's own as a copy whose start values are the
-    system's values (module docstring), any other as it is."""
-    from pendfmu.export.fmu import write_parameterized_fmu
-
-    kind = _own_component(Path(component.fmu))
-    if kind is None:
-        shutil.copyfile(component.fmu, target)
-        return
+def _start_values(system: System, component: FmuComponent) -> dict[str, float]:
+    """The Real parameter values the system gives `component` (what a parameterized copy carries)."""
     values = {}
     for name, given in system.parameters.get(component.name, {}).items():
         connector = component.connector(name)
         if given.type == "Real" and connector is not None and connector.kind == "parameter":
             values[name] = float(given.value)
-    write_parameterized_fmu(kind, values, target, f"SSP system {system.name!r}, parameter set {system.parameter_set!r}")
+    return values
+
+
+def _pack_fmu(system: System, users: list[FmuComponent], target: Path) -> None:
+    """Put the FMU the components `users` share at `target`: pendfmu's own as a copy whose
+    start values are the system's values (module docstring), any other as it is. One file
+    holds one set of start values: components sharing it with different values get the FMU
+    as it is, and their values through the SSV files only."""
+    from pendfmu.export.fmu import write_parameterized_fmu
+
+    fmu = Path(users[0].fmu)
+    kind = _own_component(fmu)
+    values = [_start_values(system, component) for component in users]
+    if kind is None or any(v != values[0] for v in values[1:]):
+        shutil.copyfile(fmu, target)
+        return
+    write_parameterized_fmu(kind, values[0], target, f"SSP system {system.name!r}, parameter set "
+                                                     f"{system.parameter_set!r}")
 
 
 def write_ssp(system: System, path: str | Path, *, system_connectors: bool = True) -> Path:
@@ -91,10 +101,16 @@ def write_ssp(system: System, path: str | Path, *, system_connectors: bool = Tru
     with tempfile.TemporaryDirectory(prefix="pendfmu-ssp-") as tmp:
         root = Path(tmp)
         files = write_ssd(system, root / SSD_NAME, system_connectors=system_connectors)
+        sources: dict[str, list[FmuComponent]] = {}
         for component in system.components.values():
-            target = root / _member_name(system, component.source)
+            sources.setdefault(_member_name(system, component.source), []).append(component)
+        for member, users in sources.items():
+            if len({Path(u.fmu).resolve() for u in users}) > 1:
+                raise SspError(f"system {system.name!r}", f"components {', '.join(u.name for u in users)} name "
+                                                          f"the same source {member!r} but different FMU files")
+            target = root / member
             target.parent.mkdir(parents=True, exist_ok=True)
-            _pack_fmu(system, component, target)
+            _pack_fmu(system, users, target)
             files.append(target)
         partial = path.with_name(path.name + ".part")  # never leave a half-written archive behind
         with zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED) as archive:

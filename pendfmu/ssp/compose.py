@@ -56,7 +56,11 @@ def compose(components: Mapping[str, str | Path], connections: Sequence[str],
     """The System of these components (name -> pendfmu component or FMU file), connected
     "Start.output=End.input", with these parameter values (see the module docstring)."""
     fmus = {n: describe_fmu(_fmu_of(n, source)) for n, source in components.items()}
-    parts = {n: FmuComponent(n, f"resources/{d.path.name}", d.connectors, "CoSimulation", d.path)
+    # An FMU used by several components is packed once per component (resources/<component>.fmu),
+    # so that each copy can carry its component's values (archive.py).
+    shared = {d.path.name for d in fmus.values() if sum(e.path.name == d.path.name for e in fmus.values()) > 1}
+    parts = {n: FmuComponent(n, f"resources/{n if d.path.name in shared else d.path.stem}.fmu", d.connectors,
+                             "CoSimulation", d.path)
              for n, d in fmus.items()}
     wires = []
     for text in connections:
