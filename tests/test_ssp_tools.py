@@ -182,6 +182,32 @@ def test_the_ecos_command_line_applies_the_values_without_parameter_set(ssps, tm
     assert float(last["Cart::m_c[REAL]"]) == GIVEN["m_c"] and float(last["Cart::eta[REAL]"]) == ETA
 
 
+def test_libcosim_applies_the_ssv_bindings_by_default(tmp_path):
+    """Without the packed copies' start values (the built FMUs, m_c 3 in their model
+    description), libcosim still runs with the SSV's m_c: it applies each component's first
+    binding when no set is named."""
+    needs("libcosim")
+    import shutil
+
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimObserver import CosimObserver
+
+    from pendfmu.ssp import write_ssd
+
+    build_all()
+    system = rig_system(ETA, FMUS_DIR, GIVEN, step_size=H)
+    write_ssd(system, tmp_path / "SystemStructure.ssd", system_connectors=False)
+    for component in system.components.values():
+        shutil.copyfile(component.fmu, tmp_path / component.source)
+    execution = CosimExecution.from_ssp_file(str(tmp_path), round(H * 1e9))
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    cart = next(info.index for info in execution.slave_infos() if info.name == b"Cart")
+    refs = {v.name.decode(): v.reference for v in execution.slave_variables(cart)}
+    assert execution.step(2)
+    assert observer.last_real_values(cart, [refs["m_c"], refs["eta"]]) == [GIVEN["m_c"], ETA]
+
+
 def test_the_rig_ssp_declares_its_inputs_and_outputs_and_omsimulators_system_type(ssps):
     """The system's own connectors are I_c in and the measured signals out, and the system
     carries the annotation OMSimulator needs, in the form of OMSimulator's own export
