@@ -24,7 +24,8 @@ test: fmus tools
 	$(PY) -m pytest
 
 # valgrind for the memcheck test, GNU Octave (and unzip, which its unzip() runs) for the test
-# that runs the exported Simulink script, chromium for the report's browser test (Debian's packages)
+# that runs the exported Simulink script, chromium for the report's browser test, libtbb12 for
+# ecos (PyPI ecospy's libecosc.so links it) in tests/test_ssp_tools.py (Debian's packages)
 tools:
 	@command -v valgrind >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq valgrind; } \
 	  || echo "warning: valgrind could not be installed; the memcheck test will be skipped" >&2
@@ -33,6 +34,8 @@ tools:
 	  || echo "warning: GNU Octave could not be installed; the tests that run the exported MATLAB script will be skipped" >&2
 	@command -v chromium >/dev/null 2>&1 || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; } \
 	  || echo "warning: chromium could not be installed; the report's browser test will be skipped" >&2
+	@ldconfig -p 2>/dev/null | grep -q 'libtbb\.so\.12' || { apt-get update -qq && apt-get install -y -qq libtbb12; } \
+	  || echo "warning: libtbb12 could not be installed; the ecos tests will be skipped" >&2
 
 clean:
 	rm -rf $(VENV) fmus out .pytest_cache build dist

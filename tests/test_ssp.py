@@ -11,6 +11,7 @@ import pytest
 from fmpy import read_model_description
 from lxml import etree
 
+from pendfmu.export.fmu import START_FILE
 from pendfmu.fmubuild import ensure_fmu
 from pendfmu.ssp import (
     Connection, ParameterSet, ParameterValue, SspError, Unit, read_ssd, read_ssp, read_ssv,
@@ -37,12 +38,12 @@ def assert_schema_valid(path: Path, schema_file: str) -> None:
 
 def test_self_locking_rig_has_two_connections(fmu_dir):
     system = rig_system(0.4, fmu_dir)
-    assert [str(c) for c in system.connections] == ["CurrentLoop.I_mean -> Cart.I", "Cart.a -> Pendulum.a"]
+    assert [str(c) for c in system.component_connections()] == ["CurrentLoop.I_mean -> Cart.I", "Cart.a -> Pendulum.a"]
 
 
 def test_back_drivable_rig_has_five_connections(fmu_dir):
     system = rig_system(0.7, fmu_dir)
-    assert len(system.connections) == 5
+    assert len(system.component_connections()) == 5
     assert Connection.between("Pendulum.alpha", "Cart.alpha") in system.connections
     assert system.value("Cart", "eta") == 0.7
 
@@ -101,6 +102,27 @@ def test_ssd_round_trip(fmu_dir, tmp_path):
     assert back.components["Cart"].fmu is None  # FMUs were not copied next to this SSD
 
 
+def test_ssd_as_written_before_system_connectors_still_reads(fmu_dir, tmp_path):
+    """A file of the earlier layout (no system connectors, no annotation on the system) reads
+    as the same rig without its own connectors."""
+    system = rig_system(0.4, fmu_dir, {"m_c": 1.5})
+    written = tmp_path / "SystemStructure.ssd"
+    write_ssd(system, written)
+    root = etree.parse(str(written)).getroot()
+    ssd = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
+    system_el = root.find(f"{ssd}System")
+    for tag in ("Connectors", "Annotations"):
+        system_el.remove(system_el.find(f"{ssd}{tag}"))
+    for connection in list(system_el.iterfind(f"{ssd}Connections/{ssd}Connection")):
+        if connection.get("startElement") is None or connection.get("endElement") is None:
+            connection.getparent().remove(connection)
+    old = tmp_path / "old.ssd"
+    old.write_bytes(etree.tostring(root))
+    back = read_ssd(old)
+    assert back.connectors == () and back.connections == system.component_connections()
+    assert back.parameters == system.parameters and back.components == system.components
+
+
 def test_ssd_binds_one_named_set_per_component(fmu_dir, tmp_path):
     ssd = tmp_path / "SystemStructure.ssd"
     write_ssd(rig_system(0.4, fmu_dir, parameter_set="bench"), ssd)
@@ -145,7 +167,10 @@ def test_schema_invalid_ssv_names_file_and_line(tmp_path):
 
 # ------------------------------------------------------------------------- SSP archive
 
-def test_ssp_round_trip_with_intact_fmus(fmu_dir, tmp_path):
+def test_ssp_round_trip_with_intact_binaries_and_the_systems_start_values(fmu_dir, tmp_path):
+    """The packed FMUs are pendfmu's builds with the system's values as start values (so
+    tools that ignore the SSV files still use them: archive.py); every other member, the
+    binaries included, is the built FMU's, byte for byte."""
     system = rig_system(0.7, fmu_dir, {"l": 0.35})
     archive = write_ssp(system, tmp_path / "rig.ssp")
     with zipfile.ZipFile(archive) as z:
@@ -156,10 +181,15 @@ def test_ssp_round_trip_with_intact_fmus(fmu_dir, tmp_path):
         z.extractall(unpacked)
     for name in RIG:
         packed = unpacked / "resources" / f"{name}.fmu"
-        assert packed.read_bytes() == (fmu_dir / f"{name}.fmu").read_bytes()
+        with zipfile.ZipFile(packed) as copy, zipfile.ZipFile(fmu_dir / f"{name}.fmu") as built:
+            kept = set(built.namelist()) - {"modelDescription.xml"}
+            assert set(copy.namelist()) == kept | {"modelDescription.xml", START_FILE}
+            for member in kept:
+                assert copy.read(member) == built.read(member), member
         md = read_model_description(str(packed))
         assert md.modelName == name
-        assert md.guid == read_model_description(str(fmu_dir / f"{name}.fmu")).guid
+        starts = {v.name: float(v.start) for v in md.modelVariables if v.causality == "parameter"}
+        assert starts == {n: v.value for n, v in system.parameters[name].items()}
     back = read_ssp(archive, tmp_path / "extracted")
     assert back == system
     assert back.components["Pendulum"].fmu == tmp_path / "extracted" / "resources" / "Pendulum.fmu"
@@ -222,6 +252,32 @@ def test_connection_from_input_to_input(written_ssd):
                                                            'startConnector="I_c" endElement="Cart"'))
     with pytest.raises(SspError, match="from a connector of kind input to one of kind input"):
         read_ssd(written_ssd)
+
+
+def test_connection_from_an_unknown_system_connector(written_ssd):
+    written_ssd.write_text(written_ssd.read_text().replace('startConnector="I_c" endElement="CurrentLoop"',
+                                                           'startConnector="I_cmd" endElement="CurrentLoop"'))
+    with pytest.raises(SspError, match="the system has no connector 'I_cmd' \\(its connectors: I_c, I, x") as error:
+        read_ssd(written_ssd)
+    assert error.value.line == _line_of(written_ssd, 'startConnector="I_cmd"')
+
+
+def test_system_output_fed_by_a_component_input(written_ssd):
+    written_ssd.write_text(written_ssd.read_text().replace('startElement="Cart" startConnector="x" endConnector="x"',
+                                                           'startElement="Cart" startConnector="I" endConnector="x"'))
+    with pytest.raises(SspError, match="a component output a system output") as error:
+        read_ssd(written_ssd)
+    assert error.value.line == _line_of(written_ssd, 'startConnector="I" endConnector="x"')
+
+
+def test_system_connector_must_be_an_input_or_output(written_ssd):
+    text = written_ssd.read_text()
+    assert text.index('<ssd:Connector name="I_c" kind="input">') < text.index("<ssd:Elements>")  # the system's
+    written_ssd.write_text(text.replace('<ssd:Connector name="I_c" kind="input">',
+                                        '<ssd:Connector name="I_c" kind="parameter">', 1))
+    with pytest.raises(SspError, match="a system connector is an input or an output") as error:
+        read_ssd(written_ssd)
+    assert error.value.line == _line_of(written_ssd, 'name="I_c" kind="parameter"')
 
 
 def test_schema_invalid_ssd_names_file_line_element(written_ssd):

@@ -8,7 +8,10 @@ Controller) or NAME=FILE.fmu (any FMI 2.0 FMU). Parameters come from --params
 ({"parameters": {"Controller.K_p": ..., "m_c": ...}}) and --set NAME=VALUE; a bare name
 sets the one component that has it. The system then runs with `pendfmu simulate
 --system` and fits with `pendfmu fit --system` (e.g. a closed-loop recording through
-its controller)."""
+its controller).
+
+Every component input no connection feeds becomes an input of the system (fmpy's
+simulate_ssp needs that); --no-system-connectors leaves them out for ecos and libcosim."""
 
 from __future__ import annotations
 
@@ -28,6 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="parameter values (after --params)")
     parser.add_argument("--step", type=float, help="the system's communication step [s] (an annotation)")
     parser.add_argument("--name", default="System", help="the system's name")
+    parser.add_argument("--no-system-connectors", action="store_true",
+                        help="leave out the system's own inputs (every input no connection feeds) for ecos and "
+                             "libcosim, which refuse connections to them")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -66,5 +72,5 @@ def run(args: argparse.Namespace) -> int:
         if values[key] is None:
             raise UsageError(f"--set {item!r}: expected NAME=NUMBER")
     system = compose(components, args.connect, values, name=args.name, step_size=args.step)
-    print(write_ssp(system, out))
+    print(write_ssp(system, out, system_connectors=not args.no_system_connectors))
     return 0

@@ -127,7 +127,7 @@ def model_setup(model: Model, recording: Recording, drive: Mapping[str, str] | N
     """The drives and matches of one recording (module docstring for the defaults)."""
     columns = set(recording.signals)
     if drive is None:
-        drive = {name: name for name in model.names("input") if "." not in name and name in columns}
+        drive = {name: name for name in model.drive_names() if name in columns}
     if match is None:
         match = {name: name for name in model.names("output") if "." not in name and name in columns}
     for name in drive:
@@ -237,7 +237,7 @@ def simulate_model(model: Model, recording: Recording, values: Mapping[str, floa
 
     columns = set(recording.signals)
     if drive is None:
-        drive = {name: name for name in model.names("input") if "." not in name and name in columns}
+        drive = {name: name for name in model.drive_names() if name in columns}
     drives = {name: Drive(recording.signal(column), interpolation) for name, column in drive.items()}
     outputs = [model.name_of(port) for port, v in model.variables.items() if v.causality == "output"]
     fixed = {**model.defaults(), **values, **recording.parameters}

@@ -138,7 +138,7 @@ class Master(CoupledSteps):
             fmus[name] = component.fmu
             parameters[name] = {key: float(value.value) for key, value in system.parameters.get(name, {}).items()}
         connections = [Connection(c.start_element, c.start_connector, c.end_element, c.end_connector)
-                       for c in system.connections]
+                       for c in system.component_connections()]  # the system's own connectors are the caller's
         if system.experiment is not None and system.experiment.step_size and "step" not in options:
             options["step"] = system.experiment.step_size
         return cls(components, connections, parameters, fmus=fmus, **options)

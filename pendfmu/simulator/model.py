@@ -78,6 +78,9 @@ class Model:
     instances: dict[str, Instance]
     connections: list[Connection] = field(default_factory=list)
     shared: bool = False  # pendfmu's rig: a bare parameter name sets every component having it
+    # An SSP system's own connectors: causality ("input"/"output") -> name -> the ports it
+    # feeds or reads. These names come first: they are the interface the system declares.
+    boundary: dict[str, dict[str, list[Port]]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.variables: dict[Port, Variable] = {}
@@ -107,6 +110,11 @@ class Model:
             ports = [p for p, v in self.variables.items() if v.causality == causality
                      and not (causality == "input" and p in connected)]
             self._names[causality] = _names(ports, self.shared and causality == "parameter")
+        for causality, connectors in self.boundary.items():
+            for name, ports in connectors.items():
+                # Only Real inputs and outputs are signals pendfmu drives and reads (as above).
+                if ports and all(p in self.variables and self.variables[p].causality == causality for p in ports):
+                    self._names[causality][name] = list(ports)
 
     # -- construction
 
@@ -128,7 +136,8 @@ class Model:
     @classmethod
     def from_ssp(cls, path: str | Path) -> Model:
         """A model of an SSP system (an .ssp archive): its FMU components and connections.
-        Its parameter set's values become the parameters' start values (`defaults`)."""
+        Its parameter set's values become the parameters' start values (`defaults`); its own
+        input and output connectors are names of the component ports they are wired to."""
         from pendfmu.ssp import read_ssp
 
         system = read_ssp(path)
@@ -138,8 +147,10 @@ class Model:
             kind = (md.coSimulation or md.modelExchange).modelIdentifier
             instances[name] = Instance(name, kind, component.fmu)
         connections = [Connection(c.start_element, c.start_connector, c.end_element, c.end_connector)
-                       for c in system.connections]
-        model = cls(system.name or Path(path).stem, instances, connections)
+                       for c in system.component_connections()]
+        boundary = {kind: {name: [Port(*pair) for pair in pairs] for name, pairs in system.boundary(kind).items()}
+                    for kind in ("input", "output")}
+        model = cls(system.name or Path(path).stem, instances, connections, boundary=boundary)
         for name, values in system.parameters.items():
             for variable, given in values.items():
                 port = Port(name, variable)
@@ -165,6 +176,15 @@ class Model:
     def names(self, causality: str) -> list[str]:
         """The names a fit may use for the model's parameters, free inputs or outputs."""
         return list(self._names[causality])
+
+    def drive_names(self) -> list[str]:
+        """The inputs a recording's equally named columns drive unless told otherwise: the
+        system's own inputs where it declares them (so a column feeds each input once, through
+        the system's interface), else every free input's unambiguous bare name."""
+        declared = [name for name in self.boundary.get("input", {}) if name in self._names["input"]]
+        if declared:
+            return declared
+        return [name for name in self._names["input"] if "." not in name and self._names["input"][name]]
 
     def resolve(self, name: str, causality: str) -> list[Port]:
         """The ports a name stands for; an unknown or ambiguous name is a ModelError that

@@ -67,8 +67,9 @@ class Replay:
         self.model = model
         self.index = np.arange(0, len(time), max(1, int(decimate)))
         self.times = np.asarray(time, dtype=float)[self.index]
-        self.drives = {model.port(name, "input"): Drive(np.asarray(d.values, dtype=float)[self.index], d.interpolation)
-                       for name, d in drives.items()}
+        # A name stands for every port it feeds: an SSP system input may feed several components.
+        self.drives = {port: Drive(np.asarray(d.values, dtype=float)[self.index], d.interpolation)
+                       for name, d in drives.items() for port in model.resolve(name, "input")}
         for port, drive in self.drives.items():
             if drive.interpolation not in INTERPOLATIONS:
                 raise ModelError(f"{port}: interpolation must be hold or linear, not {drive.interpolation!r}")

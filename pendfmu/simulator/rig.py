@@ -17,10 +17,11 @@ from pendfmu.parameters import check_parameters, with_initial_states
 from pendfmu.recording import Recording, RecordingError
 from pendfmu.simulator.master import ExternalInput, Master
 from pendfmu.ssp import rig_system
+from pendfmu.ssp.rig import RIG_OUTPUTS
 
-# The columns of `pendfmu simulate`'s output, in order (a command-line contract).
-OUTPUT_COLUMNS = {"I": "CurrentLoop.I", "x": "Cart.x", "v": "Cart.v", "a": "Cart.a",
-                  "phi": "Pendulum.phi", "w": "Pendulum.w"}
+# The columns of `pendfmu simulate`'s output, in order (a command-line contract): the rig
+# system's output connectors.
+OUTPUT_COLUMNS = dict(RIG_OUTPUTS)
 
 
 def experiment_parameters(parameters: Mapping[str, float], recording: Recording) -> dict[str, float]:
@@ -43,5 +44,6 @@ def simulate_recording(parameters: Mapping[str, float], recording: Recording, st
     system = rig_system(values.get("eta", CART.variable("eta").start), FMUS_DIR, values, step_size=step)
     master = Master.from_system(system)
     drive = ExternalInput(recording.time, recording.signal("I_c"), interpolation)
-    result = master.run(recording.time, list(OUTPUT_COLUMNS.values()), {"CurrentLoop.I_c": drive})
+    (fed,) = system.boundary("input")["I_c"]  # the system input I_c feeds CurrentLoop.I_c
+    result = master.run(recording.time, list(OUTPUT_COLUMNS.values()), {".".join(fed): drive})
     return result.rename(columns={full: short for short, full in OUTPUT_COLUMNS.items()})

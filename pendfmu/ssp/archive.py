@@ -1,5 +1,14 @@
 """SSP archives (``.ssp``): a zip with ``SystemStructure.ssd`` at its root and the files
 it references (FMUs and SSV parameter files) under ``resources/``.
+
+The parameter values are in the archive twice, so that every importer uses them without
+being told to: in the SSV files the components' ParameterBindings name (the standard's
+place; pendfmu and libcosim apply them by default), and, for pendfmu's own components, as
+the start values of the packed FMUs themselves (a parameterized copy as `pendfmu export`
+writes it, whose binary computes with them: pendfmu/export/fmu.py). ecos 0.7.2 applies a
+parameter set only when it is named on its command line and fmpy's simulate_ssp ignores
+ParameterBindings (TOOL-NOTES.md); both run the packed FMUs with the system's values.
+A user's FMU is packed as it is: its values reach other tools through the SSV files only.
 """
 
 from __future__ import annotations
@@ -12,7 +21,7 @@ from pathlib import Path, PurePosixPath
 from pendfmu.ssp._xml import Locator, SspError
 from pendfmu.ssp.check import check_system
 from pendfmu.ssp.fmu import check_against_fmu
-from pendfmu.ssp.model import System
+from pendfmu.ssp.model import FmuComponent, System
 from pendfmu.ssp.ssd import read_ssd, write_ssd
 
 SSD_NAME = "SystemStructure.ssd"  # the default SSD every SSP must have, at the archive root
@@ -27,11 +36,60 @@ def _member_name(system: System, source: str) -> str:
     return str(path)
 
 
-def write_ssp(system: System, path: str | Path) -> Path:
+def _own_component(fmu: Path) -> str | None:
+    """The name of pendfmu's component whose build (or parameterized copy) `fmu` is, else None:
+    only those binaries read the start file a parameterized copy carries."""
+    from fmpy import read_model_description
+
+    from pendfmu.components import ALL_COMPONENTS
+    from pendfmu.export.fmu import START_FILE
+    from pendfmu.fmubuild import ensure_fmu
+
+    description = read_model_description(str(fmu), validate=False)
+    kind = description.coSimulation.modelIdentifier if description.coSimulation is not None else None
+    if kind not in ALL_COMPONENTS:
+        return None
+    with zipfile.ZipFile(fmu) as archive:
+        if START_FILE in archive.namelist():
+            return kind
+    built = read_model_description(str(ensure_fmu(kind)), validate=False)
+    return kind if built.guid == description.guid else None
+
+
+def _start_values(system: System, component: FmuComponent) -> dict[str, float]:
+    """The Real parameter values the system gives `component` (what a parameterized copy carries)."""
+    values = {}
+    for name, given in system.parameters.get(component.name, {}).items():
+        connector = component.connector(name)
+        if given.type == "Real" and connector is not None and connector.kind == "parameter":
+            values[name] = float(given.value)
+    return values
+
+
+def _pack_fmu(system: System, users: list[FmuComponent], target: Path) -> None:
+    """Put the FMU the components `users` share at `target`: pendfmu's own as a copy whose
+    start values are the system's values (module docstring), any other as it is. One file
+    holds one set of start values: components sharing it with different values get the FMU
+    as it is, and their values through the SSV files only."""
+    from pendfmu.export.fmu import write_parameterized_fmu
+
+    fmu = Path(users[0].fmu)
+    kind = _own_component(fmu)
+    values = [_start_values(system, component) for component in users]
+    if kind is None or any(v != values[0] for v in values[1:]):
+        shutil.copyfile(fmu, target)
+        return
+    write_parameterized_fmu(kind, values[0], target, f"SSP system {system.name!r}, parameter set "
+                                                     f"{system.parameter_set!r}")
+
+
+def write_ssp(system: System, path: str | Path, *, system_connectors: bool = True) -> Path:
     """Write `system` as an SSP archive holding the SSD, the components' FMUs and the SSV files.
 
     Every component needs its FMU on disk (``component.fmu``); connectors are checked against
     it before packing, so an archive never contains an SSD that contradicts its FMUs.
+    `system_connectors` False leaves the system's own connectors out of the SSD, for ecos and
+    libcosim, which refuse connections to them (ssd.py).
     """
     path = Path(path)
     check_system(system)
@@ -42,11 +100,17 @@ def write_ssp(system: System, path: str | Path) -> Path:
         check_against_fmu(component, Locator(f"system {system.name!r}"))
     with tempfile.TemporaryDirectory(prefix="pendfmu-ssp-") as tmp:
         root = Path(tmp)
-        files = write_ssd(system, root / SSD_NAME)
+        files = write_ssd(system, root / SSD_NAME, system_connectors=system_connectors)
+        sources: dict[str, list[FmuComponent]] = {}
         for component in system.components.values():
-            target = root / _member_name(system, component.source)
+            sources.setdefault(_member_name(system, component.source), []).append(component)
+        for member, users in sources.items():
+            if len({Path(u.fmu).resolve() for u in users}) > 1:
+                raise SspError(f"system {system.name!r}", f"components {', '.join(u.name for u in users)} name "
+                                                          f"the same source {member!r} but different FMU files")
+            target = root / member
             target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(component.fmu, target)
+            _pack_fmu(system, users, target)
             files.append(target)
         partial = path.with_name(path.name + ".part")  # never leave a half-written archive behind
         with zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED) as archive:

@@ -13,6 +13,12 @@ from pendfmu.ssp.model import KINDS, TYPES, Connection, System
 
 # Which connector kinds may feed which: SSP 1.0, Connection element.
 _FLOWS = {("output", "input"), ("calculatedParameter", "parameter")}
+# At the system's own connectors the kinds are the system's: its input feeds a component's
+# input, a component's output feeds the system's output.
+_FROM_SYSTEM = {("input", "input")}
+_TO_SYSTEM = {("output", "output")}
+# What a system connector can be: pendfmu's systems pass signals, not parameters, through.
+SYSTEM_KINDS = ("input", "output")
 
 _PYTHON_TYPES = {"Real": (float, int), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
 
@@ -23,6 +29,7 @@ def check_system(system: System, locator: Locator | None = None) -> None:
     if not system.parameter_set:
         raise locator.error(("system",), "system", "the parameter set needs a name")
     _check_components(system, locator)
+    _check_system_connectors(system, locator)
     _check_connections(system, locator)
     _check_parameters(system, locator)
 
@@ -52,8 +59,29 @@ def _check_components(system: System, locator: Locator) -> None:
             _check_unit(system, connector.unit, ckey, what, locator)
 
 
+def _check_system_connectors(system: System, locator: Locator) -> None:
+    """The system's own connectors: unique names, kind input or output, known types and units."""
+    seen: set[str] = set()
+    for connector in system.connectors:
+        key, what = ("connector", "", connector.name), f"system connector {connector.name}"
+        if connector.name in seen:
+            raise locator.error(key, what, f"the system has two connectors named {connector.name!r}")
+        seen.add(connector.name)
+        if connector.kind not in SYSTEM_KINDS:
+            raise locator.error(key, what, f"kind {connector.kind!r}: a system connector is an input or an output")
+        if connector.type not in TYPES:
+            raise locator.error(key, what, f"type {connector.type!r} is not one of {', '.join(TYPES)}")
+        _check_unit(system, connector.unit, key, what, locator)
+
+
 def _endpoint(system: System, element: str, connector: str, key: tuple, what: str, locator: Locator):
     """The connector a connection end names, or an error saying what does not exist."""
+    if not element:
+        found = system.connector(connector)
+        if found is None:
+            raise locator.error(key, what, f"the system has no connector {connector!r} "
+                                           f"(its connectors: {', '.join(c.name for c in system.connectors) or 'none'})")
+        return found
     component = system.components.get(element)
     if component is None:
         raise locator.error(key, what, f"there is no component {element!r} "
@@ -71,9 +99,16 @@ def _check_connections(system: System, locator: Locator) -> None:
         key, what = ("connection", index), f"connection {connection}"
         start = _endpoint(system, connection.start_element, connection.start_connector, key, what, locator)
         end = _endpoint(system, connection.end_element, connection.end_connector, key, what, locator)
-        if (start.kind, end.kind) not in _FLOWS:
-            raise locator.error(key, what, f"goes from a connector of kind {start.kind} to one of kind "
-                                           f"{end.kind}; the start must be an output and the end an input")
+        if not (connection.start_element or connection.end_element):
+            raise locator.error(key, what, "connects two connectors of the system itself; one end must be a component")
+        flows = _FROM_SYSTEM if not connection.start_element else _TO_SYSTEM if not connection.end_element else _FLOWS
+        if (start.kind, end.kind) not in flows:
+            if flows is _FLOWS:
+                raise locator.error(key, what, f"goes from a connector of kind {start.kind} to one of kind "
+                                               f"{end.kind}; the start must be an output and the end an input")
+            raise locator.error(key, what, f"goes from a connector of kind {start.kind} to one of kind {end.kind}; "
+                                           "a system input feeds a component input, a component output a "
+                                           "system output")
         if start.type != end.type:
             raise locator.error(key, what, f"connects a {start.type} to a {end.type}")
         if start.unit and end.unit and start.unit != end.unit:
@@ -82,7 +117,8 @@ def _check_connections(system: System, locator: Locator) -> None:
                 raise locator.error(key, what, f"units {start.unit!r} and {end.unit!r} are not convertible")
         target = (connection.end_element, connection.end_connector)
         if target in driven:
-            raise locator.error(key, what, f"input {'.'.join(target)} is already driven by {driven[target]}")
+            name = f"input {'.'.join(target)}" if target[0] else f"system output {target[1]}"
+            raise locator.error(key, what, f"{name} is already driven by {driven[target]}")
         driven[target] = connection
 
 

@@ -12,6 +12,13 @@ A component is a pendfmu component name (built on demand) or an FMU file. A para
 is written "Component.name", or bare where one component has it (a name several have
 must be qualified). Every parameter of every component is written, as the rig does, so
 the SSP states the whole system whatever FMU build it is later combined with.
+
+Every component input no connection feeds becomes an input of the system (an SSP system
+connector wired to it), named like the variable, or Component_variable where two
+components leave inputs of the same name free: that is where a recording drives the
+system (`pendfmu simulate --system`), and other tools need it too (fmpy's simulate_ssp
+fails on an input nothing feeds). Outputs stay the components' own: every tool records
+them by Component.variable.
 """
 
 from __future__ import annotations
@@ -22,7 +29,7 @@ from pathlib import Path
 
 from pendfmu.errors import BadInput
 from pendfmu.ssp.fmu import describe_fmu
-from pendfmu.ssp.model import Connection, Experiment, FmuComponent, ParameterValue, System
+from pendfmu.ssp.model import Connection, Connector, Experiment, FmuComponent, ParameterValue, System
 
 _KINDS = {"Real": float, "Integer": int, "Boolean": bool}
 
@@ -49,7 +56,11 @@ def compose(components: Mapping[str, str | Path], connections: Sequence[str],
     """The System of these components (name -> pendfmu component or FMU file), connected
     "Start.output=End.input", with these parameter values (see the module docstring)."""
     fmus = {n: describe_fmu(_fmu_of(n, source)) for n, source in components.items()}
-    parts = {n: FmuComponent(n, f"resources/{d.path.name}", d.connectors, "CoSimulation", d.path)
+    # An FMU used by several components is packed once per component (resources/<component>.fmu),
+    # so that each copy can carry its component's values (archive.py).
+    shared = {d.path.name for d in fmus.values() if sum(e.path.name == d.path.name for e in fmus.values()) > 1}
+    parts = {n: FmuComponent(n, f"resources/{n if d.path.name in shared else d.path.stem}.fmu", d.connectors,
+                             "CoSimulation", d.path)
              for n, d in fmus.items()}
     wires = []
     for text in connections:
@@ -80,8 +91,29 @@ def compose(components: Mapping[str, str | Path], connections: Sequence[str],
         values[component][parameter] = ParameterValue(_KINDS[declared.type](value), declared.unit, declared.type)
     used = {c.unit for d in fmus.values() for c in d.connectors if c.unit}
     units = {u: d.units[u] for d in fmus.values() for u in sorted(used) if u in d.units}
-    return System(name, parts, wires, values, units, experiment=Experiment(0.0, None, step_size),
-                  description=description or f"{', '.join(parts)} composed by pendfmu")
+    connectors, boundary = free_inputs(parts, wires)
+    return System(name, parts, wires + boundary, values, units, experiment=Experiment(0.0, None, step_size),
+                  description=description or f"{', '.join(parts)} composed by pendfmu", connectors=connectors)
+
+
+def free_inputs(parts: Mapping[str, FmuComponent], wires: Sequence[Connection], taken: Sequence[str] = ()
+                ) -> tuple[tuple[Connector, ...], list[Connection]]:
+    """A system input for each component input no wire feeds (module docstring), and the
+    connections from them; a name in `taken` (the system's other connectors) is qualified too.
+
+    Why every one: fmpy's simulate_ssp resolves an input no connection feeds to the source
+    of the input before it (0.3.32 keeps the previous loop's start_p): the rig's free Cart.u
+    would silently follow CurrentLoop.I_mean there, or fail when it comes first."""
+    fed = {(w.end_element, w.end_connector) for w in wires}
+    free = [(n, c) for n, part in parts.items() for c in part.connectors
+            if c.kind == "input" and (n, c.name) not in fed]
+    names = [c.name for _, c in free] + list(taken)
+    connectors, boundary = [], []
+    for element, connector in free:
+        name = connector.name if names.count(connector.name) == 1 else f"{element}_{connector.name}"
+        connectors.append(Connector(name, "input", connector.type, connector.unit))
+        boundary.append(Connection("", name, element, connector.name))
+    return tuple(connectors), boundary
 
 
 def _target(key: str, fmus) -> tuple[str, str]:

@@ -78,7 +78,12 @@ class FmuComponent:
 
 @dataclass(frozen=True)
 class Connection:
-    """Data flows from the start connector (an output) to the end connector (an input)."""
+    """Data flows from the start connector (an output) to the end connector (an input).
+
+    An empty element ("") is the system itself, as an absent startElement/endElement is in
+    SSP 1.0: "" -> Component.input feeds a component from a system input connector, and
+    Component.output -> "" makes a component's output a system output.
+    """
 
     start_element: str
     start_connector: str
@@ -87,15 +92,30 @@ class Connection:
 
     @classmethod
     def between(cls, start: str, end: str) -> Connection:
-        """A connection from "Component.variable" to "Component.variable"."""
-        start_element, _, start_connector = start.partition(".")
-        end_element, _, end_connector = end.partition(".")
-        if not (start_connector and end_connector):
-            raise ValueError(f"connect {start!r} to {end!r}: write both ends as Component.variable")
+        """A connection from "Component.variable" to "Component.variable"; a bare name is a
+        connector of the system itself (at most one end)."""
+        start_element, start_connector = _end(start)
+        end_element, end_connector = _end(end)
+        if not (start_connector and end_connector) or not (start_element or end_element):
+            raise ValueError(f"connect {start!r} to {end!r}: write the ends as Component.variable "
+                             "(one end may be a bare name: a connector of the system)")
         return cls(start_element, start_connector, end_element, end_connector)
 
+    @property
+    def at_boundary(self) -> bool:
+        """Whether one end is a connector of the system itself rather than of a component."""
+        return not (self.start_element and self.end_element)
+
     def __str__(self) -> str:
-        return f"{self.start_element}.{self.start_connector} -> {self.end_element}.{self.end_connector}"
+        start = f"{self.start_element}.{self.start_connector}" if self.start_element else self.start_connector
+        end = f"{self.end_element}.{self.end_connector}" if self.end_element else self.end_connector
+        return f"{start} -> {end}"
+
+
+def _end(text: str) -> tuple[str, str]:
+    """(element, connector) of "Component.variable", or ("", name) for a system connector."""
+    element, dot, connector = text.partition(".")
+    return (element, connector) if dot else ("", element)
 
 
 @dataclass(frozen=True)
@@ -133,6 +153,9 @@ class System:
     ``parameters`` maps a component name to that component's values (variable name ->
     value). They form one named parameter set, ``parameter_set``, stored as one SSV file
     per component. ``units`` defines every unit the connectors and values name.
+    ``connectors`` are the system's own inputs and outputs (kind input or output), wired to
+    the components by connections with an empty element (see Connection): the names other
+    tools drive and record the system by.
     """
 
     name: str
@@ -143,6 +166,27 @@ class System:
     parameter_set: str = "parameters"
     experiment: Experiment | None = None
     description: str = ""
+    connectors: tuple[Connector, ...] = ()
+
+    def connector(self, name: str) -> Connector | None:
+        """The system's own connector called `name`, or None."""
+        return next((c for c in self.connectors if c.name == name), None)
+
+    def component_connections(self) -> list[Connection]:
+        """The connections between components: what a master couples (the system's own
+        connectors are where a caller feeds inputs and reads outputs)."""
+        return [c for c in self.connections if not c.at_boundary]
+
+    def boundary(self, kind: str) -> dict[str, list[tuple[str, str]]]:
+        """System connector name -> the (component, variable) pairs it feeds (kind "input")
+        or is fed by (kind "output")."""
+        found: dict[str, list[tuple[str, str]]] = {c.name: [] for c in self.connectors if c.kind == kind}
+        for c in self.connections:
+            if kind == "input" and not c.start_element and c.start_connector in found and c.end_element:
+                found[c.start_connector].append((c.end_element, c.end_connector))
+            elif kind == "output" and not c.end_element and c.end_connector in found and c.start_element:
+                found[c.end_connector].append((c.start_element, c.start_connector))
+        return found
 
     def parameter_source(self, component: str) -> str:
         """The URI (relative to the SSD) of the SSV file holding `component`'s values."""

@@ -7,7 +7,7 @@ from pathlib import Path
 from pendfmu.components import COMPONENTS, ETA_BACK_FROM_ETA, back_drive_efficiency
 from pendfmu.ranges import outside
 from pendfmu.ssp.fmu import FmuDescription, describe_fmu
-from pendfmu.ssp.model import Connection, Experiment, FmuComponent, ParameterValue, System
+from pendfmu.ssp.model import Connection, Connector, Experiment, FmuComponent, ParameterValue, System
 
 RIG_COMPONENTS = ("CurrentLoop", "Cart", "Pendulum")
 
@@ -16,6 +16,13 @@ RIG_COMPONENTS = ("CurrentLoop", "Cart", "Pendulum")
 SHARED_PARAMETERS = ("m_p", "l")
 
 DRIVE = (("CurrentLoop.I_mean", "Cart.I"), ("Cart.a", "Pendulum.a"))
+
+# The system's own connectors: the recorded command current drives the rig, and the signals
+# `pendfmu simulate` writes (MODEL.md's measured I, x, phi and their rates) come out, so
+# other tools drive and record the rig by these names, as pendfmu does.
+RIG_INPUTS = (("I_c", "CurrentLoop.I_c"),)
+RIG_OUTPUTS = (("I", "CurrentLoop.I"), ("x", "Cart.x"), ("v", "Cart.v"), ("a", "Cart.a"),
+               ("phi", "Pendulum.phi"), ("w", "Pendulum.w"))
 BACK_DRIVE = (("Pendulum.phi", "Cart.phi"), ("Pendulum.w", "Cart.w"), ("Pendulum.alpha", "Cart.alpha"))
 
 
@@ -24,6 +31,25 @@ def rig_connections(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> list[Con
     (eta_back: the Cart's parameter, -1 for MODEL.md's A(eta); README, Drives)."""
     pairs = DRIVE + (BACK_DRIVE if back_drive_efficiency(eta, eta_back) > 0.0 else ())
     return [Connection.between(start, end) for start, end in pairs]
+
+
+def rig_boundary(components: dict[str, FmuComponent], connections: list[Connection]
+                 ) -> tuple[tuple[Connector, ...], list[Connection]]:
+    """The system connectors RIG_INPUTS and RIG_OUTPUTS (typed and united like the variables
+    they stand for), then one for every other input no connection feeds (the Cart's command u,
+    and its pendulum inputs on a self-locking screw: named u, Cart_phi, ..., see
+    compose.free_inputs), and the connections that wire them to the components."""
+    from pendfmu.ssp.compose import free_inputs
+
+    connectors, wires = [], []
+    for kind, pairs in (("input", RIG_INPUTS), ("output", RIG_OUTPUTS)):
+        for name, port in pairs:
+            element, _, variable = port.partition(".")
+            inner = components[element].connector(variable)
+            connectors.append(Connector(name, kind, inner.type, inner.unit))
+            wires.append(Connection.between(name, port) if kind == "input" else Connection.between(port, name))
+    others, other_wires = free_inputs(components, connections + wires, [c.name for c in connectors])
+    return tuple(connectors) + others, wires + other_wires
 
 
 def _targets(key: str, starts: dict[str, dict[str, ParameterValue]]) -> list[tuple[str, str]]:
@@ -85,6 +111,9 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
                name: str = "PendulumRig", parameter_set: str = "rig") -> System:
     """The rig as an SSP system of the FMUs in `fmu_dir` (CurrentLoop.fmu, Cart.fmu, Pendulum.fmu).
 
+    The system's own connectors (RIG_INPUTS, RIG_OUTPUTS) take the command current I_c in
+    and give I, x, v, a, phi, w out; every other input no connection feeds is a system input
+    too (rig_boundary).
     `eta` is the screw efficiency: above SELF_LOCKING_ETA (0.5) the pendulum's phi, w and alpha feed back into
     the cart (5 connections), otherwise only current -> cart -> pendulum (2 connections). A Cart parameter
     `eta_back` in `parameters` overrides that switch (0: self-locking, > 0: back-drivable; README, Drives).
@@ -101,10 +130,13 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
     given = parameters or {}
     eta_back = float(given.get("Cart.eta_back", given.get("eta_back", ETA_BACK_FROM_ETA)))
     kind = "back-drivable" if back_drive_efficiency(eta, eta_back) > 0.0 else "self-locking"
+    connections = rig_connections(eta, eta_back)
+    connectors, boundary = rig_boundary(components, connections)
     return System(
         name=name,
         components=components,
-        connections=rig_connections(eta, eta_back),
+        connections=connections + boundary,
+        connectors=connectors,
         parameters=rig_parameters(eta, parameters, fmus),
         units=units,
         parameter_set=parameter_set,

@@ -1,21 +1,31 @@
 """SSP 1.0 system structure descriptions (``.ssd``): writing and reading.
 
-Layout written (plain SSP 1.0, no tool-specific annotations except the step size)::
+Layout written (plain SSP 1.0 plus the annotations other tools need, see vendor.py)::
 
     ssd:SystemStructureDescription version="1.0" name=..
       ssd:System name=..
+        ssd:Connectors/ssd:Connector name="I_c" kind="input|output" + ssc:Real unit=..
         ssd:Elements
           ssd:Component name="Cart" source="resources/Cart.fmu" implementation=..
             ssd:Connectors/ssd:Connector name=.. kind="input|output|parameter" + ssc:Real unit=..
             ssd:ParameterBindings/ssd:ParameterBinding source="resources/Cart.ssv"
         ssd:Connections/ssd:Connection startElement startConnector endElement endConnector
+          (no startElement: from a system input; no endElement: to a system output)
+        ssd:Annotations/ssc:Annotation type="org.openmodelica" (OMSimulator's system type)
       ssd:Units/ssc:Unit/ssc:BaseUnit
       ssd:DefaultExperiment startTime stopTime
         ssd:Annotations/ssc:Annotation type="org.pendfmu.experiment"/pendfmu:Experiment stepSize
 
 Parameter values are bound per component, each binding naming an SSV file whose
 parameter names are the FMU's variable names: the standard's simplest form (no prefix,
-no mapping), and the one importers such as ecos read (they ignore system-level bindings).
+no mapping), and the one importers such as ecos and libcosim read (they ignore
+system-level bindings; libcosim applies each component's first binding by default).
+
+The system's own connectors are the standard's way to give a system inputs and outputs
+(fmpy's simulate_ssp needs one for every input no component feeds). ecos 0.7.2 and
+libcosim 0.0.6 refuse any connection to them ("No element named: ", "No such node
+(<xmlattr>.startElement)"): for those, ``system_connectors=False`` writes the same system
+without them (README, "Other SSP tools"; tests/test_ssp_tools.py pins the refusal).
 """
 
 from __future__ import annotations
@@ -34,6 +44,7 @@ from pendfmu.ssp.check import check_system
 from pendfmu.ssp.fmu import check_against_fmu
 from pendfmu.ssp.model import Connection, Connector, Experiment, FmuComponent, ParameterValue, System
 from pendfmu.ssp.ssv import read_parameter_set, write_ssv
+from pendfmu.ssp.vendor import OMS_NS, omsimulator_annotation
 
 # The communication step size has no attribute in SSP 1.0's DefaultExperiment; it goes
 # into an annotation, the standard's extension point, which other tools ignore.
@@ -45,18 +56,24 @@ FMU_TYPE = "application/x-fmu-sharedlibrary"
 
 # ----------------------------------------------------------------------------- writing
 
+def _connectors_element(connectors: tuple[Connector, ...]) -> etree._Element:
+    """ssd:Connectors, each connector with its type and unit."""
+    el = etree.Element(ssd("Connectors"))
+    for connector in connectors:
+        c = etree.SubElement(el, ssd("Connector"), name=connector.name, kind=connector.kind)
+        typed = etree.SubElement(c, ssc(connector.type))
+        if connector.unit is not None and connector.type == "Real":
+            typed.set("unit", connector.unit)
+    return el
+
+
 def _component_element(system: System, component: FmuComponent) -> etree._Element:
     """ssd:Component with its connectors and, if it has values, the binding to its SSV file."""
     el = etree.Element(ssd("Component"), name=component.name, source=component.source)
     if component.implementation != "any":
         el.set("implementation", component.implementation)
     if component.connectors:
-        connectors = etree.SubElement(el, ssd("Connectors"))
-        for connector in component.connectors:
-            c = etree.SubElement(connectors, ssd("Connector"), name=connector.name, kind=connector.kind)
-            typed = etree.SubElement(c, ssc(connector.type))
-            if connector.unit is not None and connector.type == "Real":
-                typed.set("unit", connector.unit)
+        el.append(_connectors_element(component.connectors))
     if system.parameters.get(component.name):
         bindings = etree.SubElement(el, ssd("ParameterBindings"))
         etree.SubElement(bindings, ssd("ParameterBinding"), source=system.parameter_source(component.name))
@@ -78,23 +95,39 @@ def _experiment_element(experiment: Experiment) -> etree._Element:
     return el
 
 
-def ssd_element(system: System) -> etree._Element:
-    """The whole ssd:SystemStructureDescription for `system` (not yet validated)."""
-    root = etree.Element(ssd("SystemStructureDescription"), nsmap=SSD_NSMAP, version="1.0",
+def _connection_element(c: Connection) -> etree._Element:
+    """ssd:Connection; an end at the system's own connector has no element attribute."""
+    el = etree.Element(ssd("Connection"))
+    if c.start_element:
+        el.set("startElement", c.start_element)
+    el.set("startConnector", c.start_connector)
+    if c.end_element:
+        el.set("endElement", c.end_element)
+    el.set("endConnector", c.end_connector)
+    return el
+
+
+def ssd_element(system: System, *, system_connectors: bool = True) -> etree._Element:
+    """The whole ssd:SystemStructureDescription for `system` (not yet validated); without
+    `system_connectors` the system's own connectors and their connections are left out."""
+    root = etree.Element(ssd("SystemStructureDescription"), nsmap={**SSD_NSMAP, "oms": OMS_NS}, version="1.0",
                          name=system.name, generationTool=f"pendfmu {__version__}")
     sys_el = etree.SubElement(root, ssd("System"), name=system.name)
     if system.description:
         sys_el.set("description", system.description)
+    if system.connectors and system_connectors:
+        sys_el.append(_connectors_element(system.connectors))
     if system.components:
         elements = etree.SubElement(sys_el, ssd("Elements"))
         for component in system.components.values():
             elements.append(_component_element(system, component))
-    if system.connections:
+    wires = system.connections if system_connectors else system.component_connections()
+    if wires:
         connections = etree.SubElement(sys_el, ssd("Connections"))
-        for c in system.connections:
-            etree.SubElement(connections, ssd("Connection"), startElement=c.start_element,
-                             startConnector=c.start_connector, endElement=c.end_element,
-                             endConnector=c.end_connector)
+        for c in wires:
+            connections.append(_connection_element(c))
+    annotations = etree.SubElement(sys_el, ssd("Annotations"))
+    annotations.append(omsimulator_annotation(None if system.experiment is None else system.experiment.step_size))
     if system.units:
         root.append(units_element(ssd("Units"), system.units))
     if system.experiment is not None:
@@ -102,8 +135,9 @@ def ssd_element(system: System) -> etree._Element:
     return root
 
 
-def write_ssd(system: System, path: str | Path) -> list[Path]:
-    """Write the SSD to `path` and each component's SSV file where its binding points.
+def write_ssd(system: System, path: str | Path, *, system_connectors: bool = True) -> list[Path]:
+    """Write the SSD to `path` and each component's SSV file where its binding points
+    (`system_connectors`: see the module docstring).
 
     The system is checked (connections name existing connectors, ...) and every document
     validated against its schema before anything is written. Returns the files written,
@@ -112,7 +146,7 @@ def write_ssd(system: System, path: str | Path) -> list[Path]:
     """
     path = Path(path)
     check_system(system)
-    data = serialize_validated(ssd_element(system), path, SSD_SCHEMA)
+    data = serialize_validated(ssd_element(system, system_connectors=system_connectors), path, SSD_SCHEMA)
     written = [path]
     for name in system.components:
         if system.parameters.get(name):
@@ -143,7 +177,6 @@ def _resolve(base: Path, uri: str) -> Path | None:
 def _reject_unsupported(system_el: etree._Element, locator: Locator) -> None:
     """pendfmu reads flat systems of FMU components; say so rather than silently drop parts."""
     unsupported = {
-        ssd("Connectors"): "connectors on the system itself",
         ssd("ParameterBindings"): "parameter bindings on the system (bind them to components)",
         ssd("SignalDictionaries"): "signal dictionaries",
     }
@@ -159,7 +192,8 @@ def _reject_unsupported(system_el: etree._Element, locator: Locator) -> None:
 
 
 def _read_connectors(el: etree._Element, component: str, locator: Locator) -> tuple[Connector, ...]:
-    """The connectors of a component element, each noted for error reporting."""
+    """The connectors of a component element (or of the system: component ""), each noted
+    for error reporting."""
     connectors = []
     for c in el.iterfind(f"{ssd('Connectors')}/{ssd('Connector')}"):
         typed = next((t for t in c if etree.QName(t).namespace == SSC_NS), None)
@@ -253,13 +287,12 @@ def read_ssd(path: str | Path, *, require_fmus: bool = False) -> System:
             parameters[name] = values
     connections = []
     for index, el in enumerate(system_el.iterfind(f"{ssd('Connections')}/{ssd('Connection')}")):
-        if el.get("startElement") is None or el.get("endElement") is None:
-            raise locator.at(el, "connections to the system's own connectors are not supported")
         locator.note(("connection", index), el)
-        connections.append(Connection(el.get("startElement"), el.get("startConnector"),
-                                      el.get("endElement"), el.get("endConnector")))
+        connections.append(Connection(el.get("startElement", ""), el.get("startConnector"),
+                                      el.get("endElement", ""), el.get("endConnector")))
     system = System(system_el.get("name"), components, connections, parameters, found["units"],
-                    found.get("name", "parameters"), _read_experiment(root), system_el.get("description", ""))
+                    found.get("name", "parameters"), _read_experiment(root), system_el.get("description", ""),
+                    _read_connectors(system_el, "", locator))
     check_system(system, locator)
     for component in components.values():
         if component.fmu is not None:
