@@ -13,6 +13,7 @@ from pendfmu.check import convergence, determinism, inputs, rollback, sequence, 
 from pendfmu.check import reference as reference_mod
 from pendfmu.check.fmu import CheckResult, Target
 from pendfmu.check.reference import DEFAULT_ATOL, DEFAULT_RTOL
+from pendfmu.console import progress
 from pendfmu.errors import BadInput
 
 DYNAMIC = (sequence, determinism, rollback, convergence, inputs)
@@ -33,12 +34,12 @@ def run_battery(path: str | Path, stop: float | None = None, step: float | None 
     results: list[CheckResult] = []
     if only is None or "static" in only:
         results += _guarded("static", lambda: static.run(target))
-    for module in DYNAMIC:
+    runs = [(module, kind) for module in DYNAMIC for kind in target.interfaces
+            if only is None or module.__name__.rsplit(".", 1)[1] in only]
+    for module, kind in progress(runs, f"checking {Path(path).name}",
+                                 label=lambda run: f"{run[0].__name__.rsplit('.', 1)[1]} {run[1]}"):
         label = module.__name__.rsplit(".", 1)[1]
-        if only is not None and label not in only:
-            continue
-        for kind in target.interfaces:
-            results += _guarded(f"{label} {kind}", lambda: module.run(target, kind))
+        results += _guarded(f"{label} {kind}", lambda: module.run(target, kind))
     if only is None or "reference" in only:
         references = [known] if known is not None else []
         if known is None:

@@ -173,6 +173,9 @@ def run(args: argparse.Namespace) -> int:
               f"(checkpoint {path})")
         return 130
     result.provenance = with_command(result.provenance, getattr(args, "command_line", None))
+    if not result.estimates:  # the library evaluates the cost at fixed values; a command that fits nothing is a slip
+        raise UsageError(f"--fix {' '.join(args.fix)} leaves nothing to fit (and no recording estimates its own "
+                         f"values); nothing written to {args.out}")
     result.write_json(args.out)
     if path.exists():
         path.unlink()  # the fit is complete: its checkpoint has served

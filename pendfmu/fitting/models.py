@@ -192,8 +192,6 @@ def model_free_parameters(model: Model, free: Sequence[str], fix: Sequence[str],
             else:
                 low, high = through_sensor(experiment, name, low, high, shared)
             result.append(FreeParameter(name, float(low), float(high), False, experiment.name))
-    if not result:
-        raise BadInput(f"--fix {' '.join(fix)} leaves nothing of {model.name} to fit (free: {', '.join(free)})")
     return result
 
 

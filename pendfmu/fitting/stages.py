@@ -352,9 +352,6 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
                 low, high = through_sensor(experiment, name, low, high, shared)
                 log = False
             result.append(FreeParameter(name, float(low), float(high), log, experiment.name))
-    if not result:
-        raise ParameterFileError(f"stage {stage}: --fix {' '.join(fix)} leaves nothing to fit; its free parameters "
-                                 f"would be {', '.join(names)}")
     return result
 
 

@@ -1,0 +1,86 @@
+"""The README runs as written (issue 17): each of its sh and python blocks, taken from the
+README itself, runs in order in one folder that stands for a fresh checkout after the two
+commands and `. .venv/bin/activate`; each output block's lines appear in what its command
+printed. A README whose commands no longer run, or no longer print what it shows, fails here.
+
+The folder holds links to the checkout's tracked top-level entries and its built FMUs, so
+the README's relative paths (fmus/Cart.fmu, tests/foreign/...) are the checkout's, while
+everything the commands write stays in the test's temporary folder. Takes 2 to 4 minutes:
+the walkthrough's `fit all` and the foreign FMU's fit are most of it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from foreign.recordings import FITTED, TRUTH
+from readme_blocks import RUNNABLE, blocks, runnable
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+LANGUAGES = {"", "text", "output", *RUNNABLE}
+
+
+def _scratch(folder: Path) -> Path:
+    for entry in ROOT.iterdir():
+        if entry.name not in (".git", "out") and not entry.name.startswith(".pytest"):
+            (folder / entry.name).symlink_to(entry)
+    return folder
+
+
+def _run(block, cwd: Path) -> subprocess.CompletedProcess:
+    bin_dir = Path(sys.executable).parent  # the project's venv, as `. .venv/bin/activate` puts it first
+    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}",
+           "VIRTUAL_ENV": str(bin_dir.parent)}
+    env.pop("PYTHONPATH", None)
+    command = ["bash", "-e", "-o", "pipefail", "-c", block.code] if block.language == "sh" else \
+        [str(bin_dir / "python"), "-"]
+    return subprocess.run(command, input=None if block.language == "sh" else block.code, cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=900)
+
+
+@pytest.fixture(scope="module")
+def walked(tmp_path_factory):
+    """The folder after every block ran; the first failing block fails the fixture."""
+    folder = _scratch(tmp_path_factory.mktemp("readme"))
+    for block in runnable(README):
+        done = _run(block, folder)
+        assert done.returncode == 0, f"{block.label} failed:\n{block.code}\n{done.stdout[-3000:]}{done.stderr[-3000:]}"
+        printed = [line.rstrip() for line in (done.stdout + done.stderr).splitlines()]
+        for line in block.expected:
+            assert line in printed, f"{block.label}: the README shows {line!r}, the command printed:\n" + \
+                "\n".join(printed[-40:])
+    return folder
+
+
+def test_every_block_is_runnable_or_marked_as_not(walked):
+    """sh and python run (the fixture); text blocks are templates; plain blocks show output."""
+    strange = [f"{b.label}: ```{b.language}" for b in blocks(README) if b.language not in LANGUAGES]
+    assert not strange, f"code blocks must be sh, python, text or output: {strange}"
+    assert len(runnable(README)) >= 8
+
+
+def test_the_walkthrough_finds_the_drawn_truth(walked):
+    """The virtual rig's truth is not MODEL.md's reference (which the fit starts from), and the
+    fit's intervals hold it, as the README shows."""
+    truth = json.loads((walked / "rec" / "truth.json").read_text())
+    assert "drawn with seed 4" in truth["described"]
+    intervals = json.loads((walked / "rig.json").read_text())["ci95"]
+    held = {name: low <= truth["parameters"][name] <= high for name, (low, high) in intervals.items()
+            if name in truth["parameters"]}
+    assert len(held) == 12 and all(held.values()), held
+    assert (walked / "report" / "index.html").is_file()
+
+
+def test_the_your_own_fmu_example_fits_within_one_percent(walked):
+    fitted = json.loads((walked / "out/foreign/fitted.json").read_text())["parameters"]
+    for name in FITTED:  # the README promises each within 1 % of the recordings' truth
+        assert abs(fitted[name] / TRUTH[name] - 1) < 0.01, name
+    assert (walked / "out/foreign/report/index.html").is_file()
+    assert (walked / "out/foreign/predicted.csv").stat().st_size > 0
