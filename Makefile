@@ -20,13 +20,18 @@ fmus: $(STAMP)
 demo: fmus
 	$(PY) -m pendfmu demo
 
-test: fmus tools
+test: tools fmus
 	$(PY) -m pytest
 
-# valgrind for the memcheck test (Debian's package; this kind of machine usually has it)
+# valgrind for the memcheck test, mingw-w64 for the FMUs' win64 DLLs and wine to run them in
+# tests/test_win64.py (Debian's packages; this kind of machine usually has them)
 tools:
 	@command -v valgrind >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq valgrind; } \
 	  || echo "warning: valgrind could not be installed; the memcheck test will be skipped" >&2
+	@command -v x86_64-w64-mingw32-gcc >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq gcc-mingw-w64-x86-64; } \
+	  || echo "warning: gcc-mingw-w64-x86-64 could not be installed; the FMUs get no win64 DLL and the Windows tests are skipped" >&2
+	@{ command -v wine >/dev/null 2>&1 || command -v wine64 >/dev/null 2>&1; } || { apt-get update -qq && apt-get install -y -qq wine wine64; } \
+	  || echo "warning: wine could not be installed; the tests that run the win64 DLLs are skipped" >&2
 
 clean:
 	rm -rf $(VENV) fmus/*.fmu fmus/build out .pytest_cache
