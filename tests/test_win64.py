@@ -184,7 +184,8 @@ def wine(request, tmp_path_factory):
     Output goes through files, not pipes: wine's background processes (wineserver, the
     services wineboot starts) inherit the first caller's handles and would keep a pipe open
     long after the program has exited."""
-    prefix = request.config.cache.mkdir("wine-prefix")
+    cache = getattr(request.config, "cache", None)  # None with -p no:cacheprovider: a fresh prefix then
+    prefix = cache.mkdir("wine-prefix") if cache else tmp_path_factory.mktemp("wine-prefix")
     env = {**os.environ, "WINEPREFIX": str(prefix), "WINEDEBUG": "-all", "WINEDLLOVERRIDES": "mscoree,mshtml="}
     server = shutil.which("wineserver") or "wineserver"
     quiet = dict(env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -177,7 +177,7 @@ def build_fmu(component: Component, force: bool = False) -> Path:
         libraries = {p.name: tmp_dir / p.name / f"{component.name}{p.suffix}" for p in built_platforms()}
         for library in libraries.values():
             library.parent.mkdir()
-        # The compilers run side by side: win64 then adds little to a build's wall time.
+        # One compiler process per platform, side by side: with a free core, win64 adds little wall time.
         with ThreadPoolExecutor(len(libraries)) as pool:
             for done in [pool.submit(compile_sources, sources, library, platform=name)
                          for name, library in libraries.items()]:
