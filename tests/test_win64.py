@@ -134,6 +134,17 @@ def test_missing_cross_compiler_builds_linux64_only_and_warns_once(monkeypatch, 
     assert "binaries/win64" in lines[0] and "apt-get install gcc-mingw-w64-x86-64" in lines[0]
 
 
+def test_without_mingw_the_fmu_holds_linux64_only(monkeypatch, tmp_path, capsys):
+    target = tmp_path / "CurrentLoop.fmu"
+    monkeypatch.setattr(compiler, "_WARNED_MISSING", set())
+    monkeypatch.setattr(compiler, "fmu_path", lambda component: target)
+    monkeypatch.setattr(shutil, "which", lambda command: None if "mingw" in command else "/usr/bin/" + command)
+    compiler.build_fmu(COMPONENTS["CurrentLoop"], force=True)
+    with zipfile.ZipFile(target) as fmu:
+        assert [m for m in fmu.namelist() if m.startswith("binaries/")] == ["binaries/linux64/CurrentLoop.so"]
+    assert "warning: x86_64-w64-mingw32-gcc not found" in capsys.readouterr().err
+
+
 @needs_mingw
 def test_export_copies_the_win64_dll_byte_for_byte(built_fmus, tmp_path):
     from pendfmu.export.fmu import write_parameterized_fmu
