@@ -20,15 +20,19 @@ fmus: $(STAMP)
 demo: fmus
 	$(PY) -m pendfmu demo
 
-test: fmus tools
+test: tools fmus
 	$(PY) -m pytest
 
-# valgrind for the memcheck test, GNU Octave (and unzip, which its unzip() runs) for the test
-# that runs the exported Simulink script, chromium for the report's browser test, libtbb12 for
-# ecos (PyPI ecospy's libecosc.so links it) in tests/test_ssp_tools.py (Debian's packages)
+# Debian's packages for tests: valgrind (memcheck), mingw-w64 (the FMUs' win64 DLLs) and wine
+# (runs them, tests/test_win64.py), GNU Octave and unzip (the exported Simulink script),
+# chromium (the report's browser test), libtbb12 (ecos, PyPI ecospy's libecosc.so links it)
 tools:
 	@command -v valgrind >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq valgrind; } \
 	  || echo "warning: valgrind could not be installed; the memcheck test will be skipped" >&2
+	@command -v x86_64-w64-mingw32-gcc >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq gcc-mingw-w64-x86-64; } \
+	  || echo "warning: gcc-mingw-w64-x86-64 could not be installed; the FMUs get no win64 DLL and the Windows tests are skipped" >&2
+	@{ command -v wine >/dev/null 2>&1 || command -v wine64 >/dev/null 2>&1; } || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq wine wine64; } \
+	  || echo "warning: wine could not be installed; the tests that run the win64 DLLs are skipped" >&2
 	@{ command -v octave-cli >/dev/null 2>&1 && command -v unzip >/dev/null 2>&1; } \
 	  || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends octave unzip; } \
 	  || echo "warning: GNU Octave could not be installed; the tests that run the exported MATLAB script will be skipped" >&2

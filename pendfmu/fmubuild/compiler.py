@@ -5,13 +5,16 @@ installed wheel builds FMUs as a checkout does. Built FMUs go to :func:`fmu_fold
 checkout's ``fmus/`` when pendfmu runs from a source checkout, otherwise a per-version
 folder in the user's cache (``PENDFMU_FMU_DIR`` overrides both).
 
-The FMU holds modelDescription.xml, binaries/linux64/<Name>.so and sources/ (framework,
-model and generated tables in one flat folder, plus buildDescription.xml), so that an
-importer on another platform can compile it. The GUID is a hash of everything that goes
-into the binary: an FMU is rebuilt exactly when that hash changes.
+The FMU holds modelDescription.xml, binaries/linux64/<Name>.so (the system C compiler),
+binaries/win64/<Name>.dll (cross-compiled with mingw-w64, when it is installed) and
+sources/ (framework, model and generated tables in one flat folder, plus
+buildDescription.xml), so that an importer on another platform can compile it. The GUID
+is a hash of everything that goes into the binaries: an FMU is rebuilt exactly when that
+hash changes.
 
 FMI 3.0 versions of the same components (fmus/fmi3/<Name>.fmu) differ only in what
-FMI_VERSIONS lists: the facade compiled in, the binaries folder, the description writer.
+FMI_VERSIONS lists: the facade compiled in, the binaries folders' names (x86_64-linux,
+x86_64-windows), the description writer.
 """
 
 from __future__ import annotations
@@ -21,10 +24,12 @@ import importlib.resources
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import uuid
 import zipfile
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -79,18 +84,43 @@ LIBRARY_SUFFIX = ".so"  # a shared library on PLATFORM
 
 
 @dataclass(frozen=True)
+class Platform:
+    """How to build a shared library for one platform (PLATFORMS' key: FMI 2.0's folder name)."""
+
+    name: str
+    compiler: str  # the default command; linux64's can be overridden with $CC
+    suffix: str
+    flags: tuple[str, ...]
+    install: str  # how to get the compiler, for the warning when it is missing
+
+
+# Windows: a PE DLL has no ELF visibility (fmi2Functions.h's FMI2_Export and fmi3Functions.h's
+# FMI3_Export are dllexport there, and only marked functions are exported), and libgcc is
+# linked in statically so that the DLL needs nothing but Windows' own DLLs (KERNEL32,
+# msvcrt). mingw-w64 formats with its own C99 printf in -std=c99 (statically linked too).
+WIN64_FLAGS = ("-std=c99", "-O3", "-flto", "-ffp-contract=off", "-Wall", "-Wextra", "-Wpedantic", "-Werror",
+               "-static-libgcc", "-static")
+PLATFORMS = {
+    "linux64": Platform("linux64", "gcc", ".so", tuple(CFLAGS), "a C compiler (apt-get install gcc)"),
+    "win64": Platform("win64", "x86_64-w64-mingw32-gcc", ".dll", WIN64_FLAGS,
+                      "apt-get install gcc-mingw-w64-x86-64 (or: make tools)"),
+}
+
+
+@dataclass(frozen=True)
 class FmiVersion:
     """What an FMI version changes in a component FMU; everything else is shared."""
 
     facade: str  # the framework file with this version's API functions
-    platform: str  # binaries/<platform>/ for PLATFORM's library
+    binaries: dict[str, str]  # PLATFORMS' key -> the folder binaries/<folder>/ of this version
     subfolder: str  # where the FMUs go, inside the FMU folder
     model_description: Callable[[Component, str, list[str]], bytes]
 
 
 FMI_VERSIONS = {
-    2: FmiVersion("fmi2_api.c", PLATFORM, "", description.model_description),
-    3: FmiVersion("fmi3_api.c", "x86_64-linux", "fmi3", description3.model_description),
+    2: FmiVersion("fmi2_api.c", {"linux64": "linux64", "win64": "win64"}, "", description.model_description),
+    3: FmiVersion("fmi3_api.c", {"linux64": "x86_64-linux", "win64": "x86_64-windows"}, "fmi3",
+                  description3.model_description),
 }
 
 
@@ -110,12 +140,34 @@ def _hand_written_sources(component: Component, fmi_version: int = 2) -> dict[st
     return files
 
 
+_WARNED_MISSING: set[str] = set()
+
+
+def built_platforms() -> list[Platform]:
+    """linux64 and every cross platform whose compiler is installed. A missing cross
+    compiler is not an error: the FMUs then carry linux64 only, said once per process."""
+    platforms = [PLATFORMS[PLATFORM]]
+    for platform in PLATFORMS.values():
+        if platform.name == PLATFORM:
+            continue
+        if shutil.which(platform.compiler):
+            platforms.append(platform)
+        elif platform.name not in _WARNED_MISSING:
+            _WARNED_MISSING.add(platform.name)
+            print(f"warning: {platform.compiler} not found, so the FMUs get no binaries/{platform.name}; "
+                  f"to build them: {platform.install}", file=sys.stderr)
+    return platforms
+
+
 def compute_guid(component: Component, fmi_version: int = 2) -> str:
-    """A GUID that changes whenever the table, the sources or the compiler flags change
-    (an FMI 3.0 FMU's instantiationToken: its facade is among the sources)."""
+    """A GUID that changes whenever the table, the sources, the platforms built or their
+    compiler flags change (installing mingw-w64 later rebuilds the FMUs with win64; an FMI
+    3.0 FMU's instantiationToken: its facade is among the sources)."""
     digest = hashlib.sha256()
     digest.update(repr(component).encode())
     digest.update(" ".join(CFLAGS).encode())
+    for platform in built_platforms()[1:]:
+        digest.update(f"\0{platform.name} {platform.compiler} {' '.join(platform.flags)}".encode())
     digest.update(__version__.encode())
     for name, text in _hand_written_sources(component, fmi_version).items():
         digest.update(name.encode() + b"\0" + text.encode())
@@ -160,22 +212,23 @@ def source_files(component: Component, guid: str, fmi_version: int = 2) -> dict[
 
 
 def compile_library(sources: Sequence[str | Path], output: Path, include: Sequence[Path] = (),
-                    compiler: str | None = None) -> None:
-    """Compile C sources into the shared library `output`, headers searched in `include`
-    and then the FMI headers. pendfmu's one compiler command: the FMUs, the native loop
-    and the benchmark's limit are built with the same flags (those the GUIDs and the
-    loop's library name hash) for the same platform."""
-    cc = compiler or os.environ.get("CC", "gcc")
+                    compiler: str | None = None, platform: str = PLATFORM) -> None:
+    """Compile C sources into the shared library `output` for `platform` (a key of
+    PLATFORMS), headers searched in `include` and then the FMI headers. pendfmu's one
+    compiler command: the FMUs, the native loop and the benchmark's limit are built with
+    the same flags (those the GUIDs and the loop's library name hash) for the same platform."""
+    target = PLATFORMS[platform]
+    cc = compiler or (os.environ.get("CC", target.compiler) if platform == PLATFORM else target.compiler)
     folders = [*(f for folder in include for f in ("-I", str(folder))), "-I", str(FMI_HEADERS)]
-    command = [cc, *CFLAGS, "-shared", *folders, *(str(s) for s in sources), "-o", str(output), "-lm"]
+    command = [cc, *target.flags, "-shared", *folders, *(str(s) for s in sources), "-o", str(output), "-lm"]
     result = subprocess.run(command, capture_output=True, text=True)
     if result.returncode != 0:
         raise BuildError(f"{cc} failed for {', '.join(str(s) for s in sources)}:\n{result.stderr}")
 
 
-def compile_sources(source_dir: Path, output: Path, compiler: str | None = None) -> None:
+def compile_sources(source_dir: Path, output: Path, compiler: str | None = None, platform: str = PLATFORM) -> None:
     """Compile every .c file of a flat sources folder into the shared library `output`."""
-    compile_library(sorted(str(p) for p in source_dir.glob("*.c")), output, [source_dir], compiler)
+    compile_library(sorted(str(p) for p in source_dir.glob("*.c")), output, [source_dir], compiler, platform)
 
 
 def build_fmu(component: Component, force: bool = False, fmi_version: int = 2, folder: Path | None = None) -> Path:
@@ -195,12 +248,19 @@ def build_fmu(component: Component, force: bool = False, fmi_version: int = 2, f
         sources.mkdir()
         for name, text in files.items():
             (sources / name).write_text(text)
-        library = tmp_dir / f"{component.name}{LIBRARY_SUFFIX}"
-        compile_sources(sources, library)
+        libraries = {p.name: tmp_dir / p.name / f"{component.name}{p.suffix}" for p in built_platforms()}
+        for library in libraries.values():
+            library.parent.mkdir()
+        # One compiler process per platform, side by side: with a free core, win64 adds little wall time.
+        with ThreadPoolExecutor(len(libraries)) as pool:
+            for done in [pool.submit(compile_sources, sources, library, platform=name)
+                         for name, library in libraries.items()]:
+                done.result()  # a BuildError is raised here
         partial = target.with_name(f".{target.name}.{os.getpid()}.part")
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as fmu:
             fmu.writestr("modelDescription.xml", version.model_description(component, guid, names))
-            fmu.write(library, f"binaries/{version.platform}/{library.name}")
+            for name, library in libraries.items():
+                fmu.write(library, f"binaries/{version.binaries[name]}/{library.name}")
             for name in names:
                 fmu.write(sources / name, f"sources/{name}")
             fmu.writestr("sources/buildDescription.xml", description.build_description(component, names))

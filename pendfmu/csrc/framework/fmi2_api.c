@@ -69,7 +69,7 @@ const char *phase_name(FmuPhase phase) {
     return "unknown";
 }
 
-static fmi2Status fail(Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
+static fmi2Status fail(Instance *inst, const char *format, ...) PRINTF_LIKE(2, 3);
 static fmi2Status fail(Instance *inst, const char *format, ...) {
     va_list args;
     va_start(args, format);

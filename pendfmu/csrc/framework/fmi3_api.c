@@ -85,7 +85,7 @@ const char *phase_name(FmuPhase phase) {
     return "unknown";
 }
 
-static fmi3Status fail(Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
+static fmi3Status fail(Instance *inst, const char *format, ...) PRINTF_LIKE(2, 3);
 static fmi3Status fail(Instance *inst, const char *format, ...) {
     char message[1024];
     va_list args;

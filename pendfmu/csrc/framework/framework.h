@@ -22,8 +22,26 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdio.h>
 
 #include "variables.h"
+
+/* Portability: the sources are strict C99 for gcc, clang, mingw-w64 and MSVC. fmi2Functions.h (and fmi3Functions.h)
+ * already marks every fmi2 function for export (__declspec(dllexport) on Windows, default
+ * visibility under gcc and clang, which -fvisibility=hidden leaves the rest of the library).
+ *
+ * PRINTF_LIKE(f, a): let the compiler check the format string (argument f) against the
+ * arguments from a on, where it can. mingw-w64 in C99 mode formats with its own C99
+ * printf (__USE_MINGW_ANSI_STDIO, which knows %zu), so the check must be gnu_printf
+ * there: plain `printf` means the Microsoft runtime's dialect on that target. Other
+ * compilers (MSVC) get nothing. */
+#if defined(__MINGW32__) && __USE_MINGW_ANSI_STDIO
+#define PRINTF_LIKE(f, a) __attribute__((format(gnu_printf, f, a)))
+#elif defined(__GNUC__) || defined(__clang__)
+#define PRINTF_LIKE(f, a) __attribute__((format(printf, f, a)))
+#else
+#define PRINTF_LIKE(f, a)
+#endif
 
 /* Highest order of input derivatives accepted by fmi2SetRealInputDerivatives. */
 #define MAX_INPUT_ORDER 3
@@ -151,8 +169,8 @@ typedef struct {
 
 /* Logging through the host's logger callback (never crashes on a NULL logger); each facade
  * implements these for its version's callback. */
-void log_error(const Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
-void log_event(const Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
+void log_error(const Instance *inst, const char *format, ...) PRINTF_LIKE(2, 3);
+void log_event(const Instance *inst, const char *format, ...) PRINTF_LIKE(2, 3);
 /* The facade's name of a phase, for messages ("step complete" in FMI 2.0, "Step Mode" in 3.0). */
 const char *phase_name(FmuPhase phase);
 
@@ -162,7 +180,7 @@ const char *phase_name(FmuPhase phase);
  * returns its version's Error status. Value references are those of variables.h. */
 
 /* Fail with a logged message: the instance enters FMU_ERROR. Returns false. */
-bool instance_fail(Instance *inst, const char *format, ...) __attribute__((format(printf, 2, 3)));
+bool instance_fail(Instance *inst, const char *format, ...) PRINTF_LIKE(2, 3);
 /* Back to the start values, phase FMU_INSTANTIATED (after instantiation and reset). */
 void instance_reset(Instance *inst);
 /* Leave initialization mode: check the parameters, initialize the solver and the outputs;

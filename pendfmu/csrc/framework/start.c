@@ -16,33 +16,12 @@
  */
 #include <math.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include "framework.h"
+#include "uri.h"
 
 #define START_FILE "pendfmu-start.txt"
-
-/* The local path of a file URI ("file:///dir" or "file:/dir"), percent-decoded. */
-static bool uri_to_path(const char *uri, char *path, size_t size) {
-    const char *p = uri;
-    if (strncmp(p, "file://", 7) == 0) p += 7;
-    else if (strncmp(p, "file:", 5) == 0) p += 5;
-    else return false;
-    if (strncmp(p, "localhost/", 10) == 0) p += 9;
-    size_t n = 0;
-    for (; *p && n + 1 < size; p++) {
-        if (*p == '%' && p[1] && p[2]) {
-            char hex[3] = {p[1], p[2], 0};
-            path[n++] = (char)strtol(hex, NULL, 16);
-            p += 2;
-        } else {
-            path[n++] = *p;
-        }
-    }
-    path[n] = 0;
-    return *p == 0;
-}
 
 /* The start-value file in `directory` (a local path), if it names `guid`: its values
  * become inst->start. */
@@ -50,7 +29,7 @@ static bool accept_from_directory(Instance *inst, const char *guid, const char *
     char file_name[4200], line[256];
     const size_t length = strlen(directory);
     snprintf(file_name, sizeof file_name, "%s%s%s", directory,
-             length && directory[length - 1] == '/' ? "" : "/", START_FILE);
+             length && directory[length - 1] == LOCAL_PATH_SEPARATOR[0] ? "" : LOCAL_PATH_SEPARATOR, START_FILE);
     FILE *file = fopen(file_name, "r");
     if (!file) return false;
     bool accepted = false;
@@ -91,7 +70,7 @@ static bool accept_from_directory(Instance *inst, const char *guid, const char *
 
 bool start_values_accept(Instance *inst, const char *guid, const char *resource_location) {
     char directory[4096];
-    if (!resource_location || !uri_to_path(resource_location, directory, sizeof directory)) return false;
+    if (!file_uri_to_path(resource_location, LOCAL_PATHS, directory, sizeof directory)) return false;
     return accept_from_directory(inst, guid, directory);
 }
 

@@ -12,7 +12,7 @@
  * outputs n_points x n_outputs; slopes (or NULL: inputs held) gives each input's first
  * derivative over the step that starts at each point. Returns -1 on success, else the
  * index of the point where an fmi2 call failed (the FMU has logged why). */
-__attribute__((visibility("default")))
+RUNNER_EXPORT
 long pendfmu_run_single(const Unit *unit, size_t n_points, const double *times,
                         size_t n_inputs, const fmi2ValueReference *input_vrs, const double *inputs,
                         const double *slopes, size_t n_outputs, const fmi2ValueReference *output_vrs,
@@ -438,7 +438,7 @@ static int run_system(System *s, const Plan *plan, double *signal, double *start
     return 1;
 }
 
-__attribute__((visibility("default")))
+RUNNER_EXPORT
 int pendfmu_run_system(System *s) {
     s->iterations = 0;
     s->jumps = 0;

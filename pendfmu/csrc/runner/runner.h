@@ -12,6 +12,11 @@
 
 #include "fmi2Functions.h"
 
+/* The loop's two entry points are exported like the fmi2 functions: fmi2Functions.h's
+ * FMI2_Export is default visibility under gcc and clang (the library is built with
+ * -fvisibility=hidden) and __declspec(dllexport) on Windows. */
+#define RUNNER_EXPORT FMI2_Export
+
 /* Inputs one unit may have: the loop keeps them in arrays of this size. */
 #define MAX_PORTS 64
 
