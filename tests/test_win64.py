@@ -137,9 +137,8 @@ def test_missing_cross_compiler_builds_linux64_only_and_warns_once(monkeypatch, 
 def test_without_mingw_the_fmu_holds_linux64_only(monkeypatch, tmp_path, capsys):
     target = tmp_path / "CurrentLoop.fmu"
     monkeypatch.setattr(compiler, "_WARNED_MISSING", set())
-    monkeypatch.setattr(compiler, "fmu_path", lambda component: target)
     monkeypatch.setattr(shutil, "which", lambda command: None if "mingw" in command else "/usr/bin/" + command)
-    compiler.build_fmu(COMPONENTS["CurrentLoop"], force=True)
+    assert compiler.build_fmu(COMPONENTS["CurrentLoop"], force=True, folder=tmp_path) == target
     with zipfile.ZipFile(target) as fmu:
         assert [m for m in fmu.namelist() if m.startswith("binaries/")] == ["binaries/linux64/CurrentLoop.so"]
     assert "warning: x86_64-w64-mingw32-gcc not found" in capsys.readouterr().err

@@ -1,4 +1,4 @@
-/* fmus/framework/uri.c on its own, for tests/test_win64.py: built natively and with
+/* pendfmu/csrc/framework/uri.c on its own, for tests/test_win64.py: built natively and with
  * mingw-w64 (run under wine), fed the same cases on stdin.
  *
  * The first output line names the platform's own path style ("local P" or "local W").
