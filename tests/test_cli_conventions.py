@@ -157,7 +157,7 @@ def test_fit_all_on_a_virtual_rig_folder_prints_the_truth_beside_each_estimate(t
         "F_Kc": estimate(value=6.5, ci95=(6.2, 6.8), method="bootstrap"),
         "phi0[pendulum-decay]": estimate(value=3.7, ci95=(3.6, 3.8), method="bootstrap")})
     lines = _truth_lines(tmp_path, result)
-    assert lines[1].split()[:5] == ["k_fwc", "truth", "30", "found", "30.3"] and "inside" in lines[1]
+    assert lines[1].split()[:7] == ["k_fwc", "reference", "30", "truth", "30", "found", "30.3"] and "inside" in lines[1]
     assert "OUTSIDE" in lines[2]
     assert lines[-1] == "  1 of 2 intervals hold the truth"
     assert _truth_lines(tmp_path / "nothing-here", result) == []

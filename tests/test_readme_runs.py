@@ -29,8 +29,9 @@ LANGUAGES = {"", "text", "output", *RUNNABLE}
 
 def _scratch(folder: Path) -> Path:
     for entry in ROOT.iterdir():
-        if entry.name not in (".git", "out") and not entry.name.startswith(".pytest"):
+        if entry.name not in (".git", "out", ".venv") and not entry.name.startswith(".pytest"):
             (folder / entry.name).symlink_to(entry)
+    (folder / ".venv").symlink_to(Path(sys.executable).parent.parent)  # the environment running the tests
     return folder
 
 

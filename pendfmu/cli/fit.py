@@ -263,9 +263,14 @@ def _truth_lines(folder, result=None) -> list[str]:
     truth = read_truth(folder)
     if truth is None or result is None:
         return []
+    from pendfmu.components import rig_defaults
+
     rows = against_truth(result.estimates, truth)
-    lines = [f"against {folder / 'truth.json'} (a virtual rig's truth):"]
-    lines += [f"  {r.name:<10} truth {r.truth:<12.6g} found {r.value:<12.6g} ({r.value / r.truth - 1:+.2%}) "
+    reference = rig_defaults()  # where a fit starts when no value is given
+    lines = [f"against {folder / 'truth.json'} (a virtual rig's truth; MODEL.md's reference is where the fit "
+             f"started):"]
+    lines += [f"  {r.name:<10} reference {reference.get(r.name, float('nan')):<10.4g} truth {r.truth:<12.6g} "
+              f"found {r.value:<12.6g} ({r.value / r.truth - 1:+.2%}) "
               f"{'inside' if r.holds else 'OUTSIDE'} its 95 % interval" for r in rows]
     lines.append(f"  {sum(r.holds for r in rows)} of {len(rows)} intervals hold the truth")
     return lines
