@@ -215,3 +215,12 @@ def test_progress_shows_a_bar_on_a_terminal_and_nothing_in_a_pipe(monkeypatch, c
     assert list(console.progress(["a", "b"], "building FMUs", label=str.upper)) == ["a", "b"]
     shown = capsys.readouterr().err
     assert "building FMUs" in shown and "B" in shown
+
+
+def test_a_mistyped_choice_or_stage_gets_the_nearest_name(capsys):
+    with pytest.raises(SystemExit) as stop:
+        main(["check", "--only", "statc", "fmus/Cart.fmu"])
+    assert stop.value.code == 2
+    assert "'statc' is not one of static, sequence" in capsys.readouterr().err
+    assert main(["fit", "cartt", "rec.csv", "--out", "x.json"]) == 2
+    assert "'cartt' is not a stage (did you mean 'cart'?)" in capsys.readouterr().err

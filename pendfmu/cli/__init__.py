@@ -38,9 +38,15 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)         # scripts whenever an option with the same prefix is added
 
     def error(self, message: str):  # noqa: D102
-        if "invalid choice: " in message and self._subparsers is not None:
-            word = message.split("invalid choice: ", 1)[1].split(" (choose from", 1)[0].strip("'")
-            message = f"{word!r} is not a command{did_you_mean(word, SUBCOMMANDS)}; commands: {', '.join(SUBCOMMANDS)}"
+        if "invalid choice: " in message:
+            head, _, rest = message.partition("invalid choice: ")
+            word, _, choices = rest.partition(" (choose from ")
+            word = word.strip("'")
+            valid = [c.strip(" '") for c in choices.rstrip(")").split(",")]
+            if self._subparsers is not None and head.startswith("argument COMMAND"):
+                message = f"{word!r} is not a command{did_you_mean(word, SUBCOMMANDS)}; commands: {', '.join(SUBCOMMANDS)}"
+            else:
+                message = f"{head}{word!r} is not one of {', '.join(valid)}{did_you_mean(word, valid)}"
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 

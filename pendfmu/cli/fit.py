@@ -209,7 +209,10 @@ def _model_and_recordings(args: argparse.Namespace):
         return load_model(args.fmu or args.system)
     args.stage, args.recordings = args.items[0], list(args.items[1:])
     if args.stage not in STAGE_NAMES:
-        raise UsageError(f"{args.stage!r} is not a stage ({', '.join(STAGE_NAMES)}); to fit your own model give "
+        from pendfmu.suggest import did_you_mean
+
+        raise UsageError(f"{args.stage!r} is not a stage{did_you_mean(args.stage, STAGE_NAMES)} "
+                         f"({', '.join(STAGE_NAMES)}); to fit your own model give "
                          f"--fmu X.fmu or --system S.ssp")
     if not args.recordings:
         raise UsageError(f"fit {args.stage}: give its recordings")
