@@ -42,21 +42,26 @@ def run(args: argparse.Namespace) -> int:
     check_output_path(args.out)
     check_output_file(args.out, "--out")
     if args.fmu or args.system:
-        result = _simulate_model(args)
+        result, used, columns = _simulate_model(args)
     else:
         if args.drive:
             raise UsageError("--drive is for --fmu/--system; the rig is driven by the recording's I_c")
         parameters = read_parameters(args.params) if args.params else {}
         recording = read_recording(args.input)
         result = simulate_recording(parameters, recording, step=args.step, interpolation=args.interpolation)
+        used, columns = ["I_c"], list(recording.signals)
     write_signals(args.out, result["time"], {name: result[name] for name in result.columns[1:]})
     print(f"wrote {len(result)} samples of {', '.join(result.columns[1:])} to {args.out}")
+    unused = [c for c in columns if c not in used]
+    if unused:  # said, so that a column meant as a drive but misnamed does not pass unnoticed
+        print(f"note: driven by {', '.join(used) or 'nothing'}; not used: {', '.join(unused)}")
     return 0
 
 
 def _simulate_model(args: argparse.Namespace):
     """A user's FMU or SSP system driven by the recording, at the recording's time stamps
-    (the model's own communication points: --step is the rig's)."""
+    (the model's own communication points: --step is the rig's); with the columns that
+    drove it and all the recording's columns."""
     from pendfmu.fitting.models import checked_values, initial_map, load_model, mapping, read_for, simulate_model
     from pendfmu.parameters import read_parameters
 
@@ -64,8 +69,11 @@ def _simulate_model(args: argparse.Namespace):
     parameters = read_parameters(args.params, lambda values, where: checked_values(model, values, where)) \
         if args.params else {}
     drive = mapping(args.drive)
-    (recording,) = read_for(model, [args.input], drive, None, initial_map(model, None), _csv_columns(args.input))
-    return simulate_model(model, recording, parameters, drive, args.interpolation)
+    columns = _csv_columns(args.input)
+    (recording,) = read_for(model, [args.input], drive, None, initial_map(model, None), columns)
+    used = sorted(set(drive.values())) if drive else [c for c in recording.signals if c in model.drive_names()]
+    return simulate_model(model, recording, parameters, drive, args.interpolation), used, \
+        columns or list(recording.signals)
 
 
 def _csv_columns(path: str) -> list[str]:
