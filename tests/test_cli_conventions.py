@@ -62,7 +62,9 @@ def test_global_options_anywhere_before_a_double_dash():
     assert untangle(["fit", "cart", "--debug", "r.csv", "--out", "o.json"], parser, {}) == \
         (["--debug"], ["fit", "cart", "r.csv", "--out", "o.json"])
     assert untangle(["--debug", "check", "a.fmu"], parser, {})[0] == ["--debug"]
-    assert untangle(["check", "--", "--debug"], parser, {}) == ([], ["check", "--debug"])
+    assert untangle(["check", "--", "--debug"], parser, {}) == ([], ["check", "--", "--debug"])
+    assert untangle(["fit", "cart", "--fix", "eta", "--", "-rec.csv"], parser, {"fit": STAGE_NAMES}) == \
+        ([], ["fit", "--fix", "eta", "--", "cart", "-rec.csv"])
 
 
 def test_a_list_option_stops_at_a_positional(tmp_path):
@@ -85,6 +87,9 @@ def test_a_list_option_stops_at_a_positional(tmp_path):
     }
     for typed, expected in cases.items():
         assert untangle(list(typed), parser, words) == ([], expected), typed
+    # NAME=FILE.fmu is an option's value, not a positional
+    assert untangle(["system", "--component", "Cart=c.fmu", "Controller=d.fmu", "--out", "s.ssp"], parser, words) \
+        == ([], ["system", "--component", "Cart=c.fmu", "Controller=d.fmu", "--out", "s.ssp"])
     # a qualified parameter name is not a file name: Cart.m_c stays with --free
     assert untangle(["fit", "--fmu", "m.fmu", str(rec), "--free", "Cart.m_c", "k"], parser, words)[1] == \
         ["fit", str(rec), "--fmu", "m.fmu", "--free", "Cart.m_c", "k"]
@@ -224,3 +229,19 @@ def test_a_mistyped_choice_or_stage_gets_the_nearest_name(capsys):
     assert "'statc' is not one of static, sequence" in capsys.readouterr().err
     assert main(["fit", "cartt", "rec.csv", "--out", "x.json"]) == 2
     assert "'cartt' is not a stage (did you mean 'cart'?)" in capsys.readouterr().err
+
+
+def test_system_components_given_as_name_equals_file(tmp_path, capsys):
+    """The README's `pendfmu system --component NAME=FILE.fmu ...` form, through main()."""
+    from pendfmu.fmubuild import ensure_fmu
+
+    out = tmp_path / "s.ssp"
+    assert main(["system", "--component", f"Cart={ensure_fmu('Cart')}", f"Controller={ensure_fmu('Controller')}",
+                 "--connect", "Controller.u=Cart.u", "Cart.x=Controller.y", "--out", str(out)]) == 0
+    assert out.is_file()
+
+
+def test_a_positional_after_a_double_dash_may_start_with_a_dash(tmp_path, capsys):
+    """`--` ends the options: a recording named -rec.csv is a recording (here: not found)."""
+    assert main(["fit", "cart", "--out", str(tmp_path / "r.json"), "--", "-rec.csv"]) == 2
+    assert "-rec.csv: no such file" in capsys.readouterr().err

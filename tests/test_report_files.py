@@ -170,3 +170,28 @@ def test_predicted_recordings_get_their_own_plots_and_errors(tmp_path):
     expected = signal_errors(coupled)[0]
     assert float(row[header.index("RMS error [steps]")]) == pytest.approx(expected.steps, rel=5e-3)
     assert float(row[header.index("RMS error [σ]")]) == pytest.approx(math.sqrt(12) * expected.steps, rel=5e-3)
+
+
+def test_a_users_own_page_is_never_overwritten(tmp_path, capsys):
+    """A folder whose index.html is the user's (not a pendfmu page, not in a manifest)
+    stops the report: exit 2 from the command line, the page untouched."""
+    folder = tmp_path / "site"
+    folder.mkdir()
+    (folder / "index.html").write_text("<html><title>my homepage</title></html>")
+    with pytest.raises(BadInput, match="index.html: exists and was not written by a pendfmu report"):
+        write_report(current_result(), folder)
+    assert (folder / "index.html").read_text() == "<html><title>my homepage</title></html>"
+
+
+def test_a_report_that_fails_to_render_leaves_the_earlier_one(tmp_path, monkeypatch):
+    folder = tmp_path / "report"
+    index = write_report(current_result(), folder)
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+
+    def broken(*args, **kwargs):
+        raise ValueError("arrays of different lengths")
+
+    monkeypatch.setattr("pendfmu.report.html.page", broken)
+    with pytest.raises(ValueError):
+        write_report(current_result(), folder)
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before and index.is_file()

@@ -10,7 +10,9 @@ before the subcommand. :func:`untangle` rewrites the arguments before argparse s
 - a list option's values end at the next option or at the first word that is clearly a
   positional: an existing file or folder, a name with a recording's or model's suffix,
   or one of the subcommand's positional words (the stages for ``fit``);
-- all positionals then come first, right after the subcommand, the options after them.
+- all positionals then come first, right after the subcommand, the options after them;
+  after a ``--``, the options come first and every positional after the ``--`` (argparse
+  fills a list positional only from one run of words).
 
 Nothing is dropped or invented: the same words reach argparse, only reordered, so its own
 error messages stay right.
@@ -28,7 +30,10 @@ FILE_SUFFIXES = (".csv", ".mat", ".json", ".fmu", ".ssp", ".ssd")
 
 def _looks_positional(word: str, words: Collection[str]) -> bool:
     """A word no list option takes: a path that exists, a file name of the kinds pendfmu
-    reads, or one of the subcommand's own positional words."""
+    reads, or one of the subcommand's own positional words. A word with `=` is an option's
+    NAME=VALUE (`--component Cart=cart.fmu`): no pendfmu positional has one."""
+    if "=" in word:
+        return False
     if word in words or Path(word).suffix.lower() in FILE_SUFFIXES:
         return True
     try:
@@ -60,9 +65,8 @@ def untangle(argv: Sequence[str], parser: argparse.ArgumentParser,
     i = command_index + 1
     while i < len(rest):
         word = rest[i]
-        if word == "--":
-            positionals += rest[i + 1:]
-            break
+        if word == "--":  # what follows is positional, whatever it looks like: every positional goes there
+            return found, rest[:command_index + 1] + tail + ["--"] + positionals + rest[i + 1:]
         action = options.get(word.split("=", 1)[0]) if word.startswith("-") else None
         if action is None:
             (tail if word.startswith("-") else positionals).append(word)  # argparse words unknown options

@@ -207,7 +207,7 @@ def read_result(path: str | Path) -> FitResult:
         raise BadInput(f'{path}: not a result file of pendfmu fit (expected "parameters" and "fit" with a "stage")')
     try:
         return _result_from(document)
-    except (KeyError, TypeError, ValueError) as error:
+    except (KeyError, TypeError, ValueError, AttributeError) as error:
         raise BadInput(f"{path}: a result file with a malformed entry ({type(error).__name__}: {error})") from None
 
 

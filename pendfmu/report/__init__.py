@@ -24,14 +24,19 @@ __all__ = ["write_report", "write_comparison"]
 
 def write_report(result: FitResult, directory: str | Path) -> Path:
     """Write the report of `result` into `directory` (created if needed); returns the
-    path of its index.html. Figures are written first, so the page never refers to a
-    PNG that is not there."""
+    path of its index.html. Everything is drawn first, into a temporary folder: a report
+    that fails to render leaves the folder's earlier report as it was."""
+    import tempfile
+
     from pendfmu.report.figures import write_friction_figures
     from pendfmu.report.html import page
 
-    directory = _fresh(directory)
-    friction = write_friction_figures(result, directory)
-    return _finish(directory, page(result, friction), [directory / p.file for p in friction])
+    directory = Path(directory)
+    with tempfile.TemporaryDirectory(prefix="pendfmu-report-") as drawn:
+        friction = write_friction_figures(result, Path(drawn))
+        text = page(result, friction)
+        figures = {p.file: Path(drawn) / p.file for p in friction}
+        return _replace(directory, text, figures)
 
 
 def write_comparison(first: FitResult, second: FitResult, directory: str | Path,
@@ -40,23 +45,33 @@ def write_comparison(first: FitResult, second: FitResult, directory: str | Path,
     are their files, if any); returns its index.html."""
     from pendfmu.report.compare import comparison_page
 
-    directory = _fresh(directory)
-    return _finish(directory, comparison_page(first, second, names, sources), [])
+    return _replace(Path(directory), comparison_page(first, second, names, sources), {})
 
 
-def _fresh(directory: str | Path) -> Path:
-    from pendfmu.report.manifest import remove_previous
+def _replace(directory: Path, text: str, figures: dict[str, Path]) -> Path:
+    """Put a rendered report (page text, figure name -> drawn file) into `directory`: the
+    earlier report's files go (manifest.py), the user's stay. A file of the new report's
+    name that pendfmu did not write (someone's own index.html) stops it: BadInput, nothing
+    changed."""
+    import shutil
 
-    directory = Path(directory)
+    from pendfmu.errors import UsageError
+    from pendfmu.report.manifest import earlier_report_files, is_pendfmu_page, remove_previous, write_manifest
+
+    if directory.exists() and not directory.is_dir():
+        raise UsageError(f"{directory}: is a file, not a report folder")
+    ours = set(earlier_report_files(directory)) if directory.is_dir() else set()
+    if is_pendfmu_page(directory / "index.html"):
+        ours.add(directory / "index.html")
+    for name in ["index.html", *figures]:
+        if (directory / name).exists() and directory / name not in ours:
+            raise UsageError(f"{directory / name}: exists and was not written by a pendfmu report; give another "
+                             f"folder or remove it")
     directory.mkdir(parents=True, exist_ok=True)
     remove_previous(directory)
-    return directory
-
-
-def _finish(directory: Path, text: str, files: list[Path]) -> Path:
-    from pendfmu.report.manifest import write_manifest
-
+    for name, drawn in figures.items():
+        shutil.copyfile(drawn, directory / name)
     index = directory / "index.html"
     index.write_text(text, encoding="utf-8")
-    write_manifest(directory, [*files, index])
+    write_manifest(directory, [*(directory / name for name in figures), index])
     return index

@@ -57,9 +57,25 @@ def legacy_files(directory: Path) -> list[Path]:
     return [index] + [f for f in figures if f.is_file() and not f.is_symlink()]
 
 
+def earlier_report_files(directory: Path) -> list[Path]:
+    """The files of the report written earlier into `directory` (by its manifest, or as a
+    report from before manifests): those a new report may remove."""
+    return previous_files(directory) if (directory / MANIFEST).exists() else legacy_files(directory)
+
+
+def is_pendfmu_page(path: Path) -> bool:
+    """Whether `path` is a page a pendfmu report wrote (its title says so): a new report
+    may replace it even where the manifest is gone or broken, never a page of the user's."""
+    try:
+        head = path.read_text(encoding="utf-8", errors="replace")[:4000]
+    except OSError:
+        return False
+    return re.search(r"<title>pendfmu (fit report|comparison)", head) is not None
+
+
 def remove_previous(directory: Path) -> list[Path]:
     """Remove the files of the report written earlier into `directory`; returns them."""
-    removed = previous_files(directory) if (directory / MANIFEST).exists() else legacy_files(directory)
+    removed = earlier_report_files(directory)
     for path in removed:
         path.unlink()
     (directory / MANIFEST).unlink(missing_ok=True)
