@@ -245,3 +245,13 @@ def test_a_positional_after_a_double_dash_may_start_with_a_dash(tmp_path, capsys
     """`--` ends the options: a recording named -rec.csv is a recording (here: not found)."""
     assert main(["fit", "cart", "--out", str(tmp_path / "r.json"), "--", "-rec.csv"]) == 2
     assert "-rec.csv: no such file" in capsys.readouterr().err
+
+
+def test_the_truth_table_survives_a_zero_truth_and_a_missing_interval(tmp_path):
+    (tmp_path / "truth.json").write_text(json.dumps({"parameters": {"a_h": 0.0, "k_fwc": 30.0}}))
+    estimate = SimpleNamespace
+    result = SimpleNamespace(estimates={"a_h": estimate(value=0.001, ci95=(-0.002, 0.003), method="bootstrap"),
+                                        "k_fwc": estimate(value=30.1, ci95=None, method="jacobian")})
+    lines = _truth_lines(tmp_path, result)
+    assert "(+0.001) inside its 95 % interval" in lines[1] and lines[2].endswith("no interval")
+    assert lines[-1] == "  1 of 1 intervals hold the truth (1 estimates without an interval)"

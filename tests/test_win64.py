@@ -106,8 +106,9 @@ def test_dll_exports_every_fmi2_function(built_fmus, name, tmp_path):
 
 
 def test_guid_hashes_the_win64_platform_and_its_flags(monkeypatch):
-    """An FMU is rebuilt exactly when its GUID changes: installing mingw-w64 later, or
-    changing the Windows flags, must change it."""
+    """Changing the Windows flags changes the GUID; whether this machine has mingw-w64 does
+    not (a shell without it on PATH must not find every FMU stale): test below for the
+    rebuild once it is installed."""
     monkeypatch.setattr(compiler, "_WARNED_MISSING", {"win64"})  # the missing-compiler case stays quiet
     cart = COMPONENTS["Cart"]
     available = dict(compiler.PLATFORMS["win64"].__dict__)
@@ -119,8 +120,25 @@ def test_guid_hashes_the_win64_platform_and_its_flags(monkeypatch):
 
     with_win64 = guid_with()
     assert guid_with(flags=(*available["flags"], "-O1")) != with_win64
+    monkeypatch.setitem(compiler.PLATFORMS, "win64", compiler.Platform(**available))
     monkeypatch.setattr(shutil, "which", lambda command: None if "mingw" in command else "/usr/bin/" + command)
-    assert compiler.compute_guid(cart) != with_win64
+    assert compiler.compute_guid(cart) == with_win64
+
+
+def test_an_fmu_without_the_dll_is_rebuilt_once_mingw_is_there(monkeypatch, tmp_path, capsys):
+    """Built where mingw-w64 was missing, the FMU is current for that machine (no rebuild,
+    no warning without a build); once the compiler is there, the FMU is rebuilt with it."""
+    monkeypatch.setattr(compiler, "_WARNED_MISSING", set())
+    component = COMPONENTS["CurrentLoop"]
+    real_which = shutil.which
+    monkeypatch.setattr(shutil, "which", lambda command: None if "mingw" in command else real_which(command))
+    path = compiler.build_fmu(component, force=True, folder=tmp_path)
+    built = path.stat().st_mtime_ns
+    assert compiler.build_fmu(component, folder=tmp_path).stat().st_mtime_ns == built  # current: not rebuilt
+    monkeypatch.setattr(shutil, "which", real_which)
+    compiler.build_fmu(component, folder=tmp_path)
+    with zipfile.ZipFile(path) as fmu:
+        assert "binaries/win64/CurrentLoop.dll" in fmu.namelist()
 
 
 def test_missing_cross_compiler_builds_linux64_only_and_warns_once(monkeypatch, capsys):

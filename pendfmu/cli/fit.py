@@ -261,6 +261,8 @@ def _summary(result) -> str:
 
 def _truth_lines(folder, result=None) -> list[str]:
     """A virtual rig's folder holds truth.json: show what the fit found against it."""
+    import math
+
     from pendfmu.virtual_rig import against_truth, read_truth
 
     truth = read_truth(folder)
@@ -272,10 +274,17 @@ def _truth_lines(folder, result=None) -> list[str]:
     reference = rig_defaults()  # where a fit starts when no value is given
     lines = [f"against {folder / 'truth.json'} (a virtual rig's truth; MODEL.md's reference is where the fit "
              f"started):"]
-    lines += [f"  {r.name:<10} reference {reference.get(r.name, float('nan')):<10.4g} truth {r.truth:<12.6g} "
-              f"found {r.value:<12.6g} ({r.value / r.truth - 1:+.2%}) "
-              f"{'inside' if r.holds else 'OUTSIDE'} its 95 % interval" for r in rows]
-    lines.append(f"  {sum(r.holds for r in rows)} of {len(rows)} intervals hold the truth")
+    def line(r) -> str:
+        error = f"{r.value / r.truth - 1:+.2%}" if r.truth != 0 else f"{r.value - r.truth:+.3g}"
+        verdict = "no interval" if math.isnan(r.low) else \
+            f"{'inside' if r.holds else 'OUTSIDE'} its 95 % interval"
+        return (f"  {r.name:<10} reference {reference.get(r.name, float('nan')):<10.4g} truth {r.truth:<12.6g} "
+                f"found {r.value:<12.6g} ({error}) {verdict}")
+
+    lines += [line(r) for r in rows]
+    judged = [r for r in rows if not math.isnan(r.low)]
+    lines.append(f"  {sum(r.holds for r in judged)} of {len(judged)} intervals hold the truth"
+                 + (f" ({len(rows) - len(judged)} estimates without an interval)" if len(judged) < len(rows) else ""))
     return lines
 
 

@@ -143,16 +143,17 @@ def _hand_written_sources(component: Component, fmi_version: int = 2) -> dict[st
 _WARNED_MISSING: set[str] = set()
 
 
-def built_platforms() -> list[Platform]:
+def built_platforms(warn: bool = True) -> list[Platform]:
     """linux64 and every cross platform whose compiler is installed. A missing cross
-    compiler is not an error: the FMUs then carry linux64 only, said once per process."""
+    compiler is not an error: the FMUs then carry linux64 only, said once per process
+    (when `warn`: a build that will run)."""
     platforms = [PLATFORMS[PLATFORM]]
     for platform in PLATFORMS.values():
         if platform.name == PLATFORM:
             continue
         if shutil.which(platform.compiler):
             platforms.append(platform)
-        elif platform.name not in _WARNED_MISSING:
+        elif warn and platform.name not in _WARNED_MISSING:
             _WARNED_MISSING.add(platform.name)
             print(f"warning: {platform.compiler} not found, so the FMUs get no binaries/{platform.name}; "
                   f"to build them: {platform.install}", file=sys.stderr)
@@ -160,14 +161,17 @@ def built_platforms() -> list[Platform]:
 
 
 def compute_guid(component: Component, fmi_version: int = 2) -> str:
-    """A GUID that changes whenever the table, the sources, the platforms built or their
-    compiler flags change (installing mingw-w64 later rebuilds the FMUs with win64; an FMI
-    3.0 FMU's instantiationToken: its facade is among the sources)."""
+    """A GUID that changes whenever the table, the sources, or any platform's compiler and
+    flags change (an FMI 3.0 FMU's instantiationToken: its facade is among the sources).
+    It does not depend on which compilers this machine has: a shell without mingw-w64 on
+    its PATH must not find every FMU stale. Installing mingw-w64 later rebuilds the FMUs
+    all the same: build_fmu also wants every buildable platform's binary inside."""
     digest = hashlib.sha256()
     digest.update(repr(component).encode())
     digest.update(" ".join(CFLAGS).encode())
-    for platform in built_platforms()[1:]:
-        digest.update(f"\0{platform.name} {platform.compiler} {' '.join(platform.flags)}".encode())
+    for platform in PLATFORMS.values():
+        if platform.name != PLATFORM:
+            digest.update(f"\0{platform.name} {platform.compiler} {' '.join(platform.flags)}".encode())
     digest.update(__version__.encode())
     for name, text in _hand_written_sources(component, fmi_version).items():
         digest.update(name.encode() + b"\0" + text.encode())
@@ -231,13 +235,23 @@ def compile_sources(source_dir: Path, output: Path, compiler: str | None = None,
     compile_library(sorted(str(p) for p in source_dir.glob("*.c")), output, [source_dir], compiler, platform)
 
 
+def _holds_binaries(path: Path, version: FmiVersion) -> bool:
+    """Whether the FMU at `path` has a binary for every platform this machine can build."""
+    try:
+        with zipfile.ZipFile(path) as fmu:
+            folders = {name.split("/")[1] for name in fmu.namelist() if name.startswith("binaries/") and name.count("/") > 1}
+    except (OSError, zipfile.BadZipFile):
+        return False
+    return all(version.binaries[p.name] in folders for p in built_platforms(warn=False))
+
+
 def build_fmu(component: Component, force: bool = False, fmi_version: int = 2, folder: Path | None = None) -> Path:
     """Build <folder>/<Name>.fmu (FMI 3.0: <folder>/fmi3/<Name>.fmu; folder: fmu_folder())
     unless an FMU of the same sources is already there."""
     version = fmi_version_of(fmi_version)
     target = fmu_path(component, fmi_version, folder)
     guid = compute_guid(component, fmi_version)
-    if not force and target.exists() and built_guid(target) == guid:
+    if not force and target.exists() and built_guid(target) == guid and _holds_binaries(target, version):
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     files = source_files(component, guid, fmi_version)

@@ -346,6 +346,38 @@ bool instance_serialize(Instance *inst, const char *function, const DynamicState
     return true;
 }
 
+/* Whether a state read from bytes is one this FMU could have saved: the right GUID alone
+ * does not make the bytes safe (a file edited or damaged after serializing), and the
+ * values below index arrays or bound loops. The time, the interpolation orders, the
+ * outputs' status, every parameter's physical range and the model's own parameter check
+ * (e.g. the Controller's delay, an index into its delay line). */
+static bool state_consistent(Instance *inst, const DynamicState *s, char *why, size_t size) {
+    if (!isfinite(s->time)) {
+        snprintf(why, size, "time %g", s->time);
+        return false;
+    }
+    if (s->outputs != OUTPUTS_STALE && s->outputs != OUTPUTS_STEPPED && s->outputs != OUTPUTS_CURRENT) {
+        snprintf(why, size, "outputs status %d", (int)s->outputs);
+        return false;
+    }
+    for (int vr = 0; vr < N_REAL; vr++) {
+        const RealInfo *info = &REAL_INFO[vr];
+        if (s->uder_order[vr] < 0 || s->uder_order[vr] > MAX_INPUT_ORDER) {
+            snprintf(why, size, "input derivative order %d of %s", s->uder_order[vr], info->name);
+            return false;
+        }
+        if (info->causality == CAUSALITY_PARAMETER && !(isfinite(s->r[vr]) && in_range(info, s->r[vr]))) {
+            snprintf(why, size, "%s = %g is outside its physical range", info->name, s->r[vr]);
+            return false;
+        }
+    }
+    const DynamicState saved = inst->s;
+    inst->s = *s;  /* the model's check reads the instance's state */
+    const bool fine = model_check_parameters(inst, why, size);
+    inst->s = saved;
+    return fine;
+}
+
 bool instance_deserialize(Instance *inst, const char *function, const unsigned char *bytes, size_t size,
                           DynamicState *state) {
     SerializedState in;
@@ -358,6 +390,8 @@ bool instance_deserialize(Instance *inst, const char *function, const unsigned c
                              MODEL_IDENTIFIER);
     if (in.s.phase & ~ANY_PHASE || in.s.phase == 0)
         return instance_fail(inst, "%s: corrupt state (phase %d)", function, (int)in.s.phase);
+    char why[256];
+    if (!state_consistent(inst, &in.s, why, sizeof why)) return instance_fail(inst, "%s: corrupt state: %s", function, why);
     *state = in.s;
     return true;
 }
