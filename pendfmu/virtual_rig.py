@@ -231,7 +231,8 @@ def record(experiment: Experiment, truth: Mapping[str, float], sensors: Sensors)
 def write_experiments(out: str | Path, truth: Mapping[str, float] | None = None, seed: int = 0,
                       experiments: list[Experiment] | None = None, **about: object) -> list[Path]:
     """Write every experiment's recording into `out`, and the truth as truth.json (with
-    the noise seed and `about`, e.g. how the truth was chosen)."""
+    the noise seed, each recording's own true values such as a release angle under
+    "recordings", and `about`, e.g. how the truth was chosen)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     values = {**reference_truth(), **(truth or {})}
@@ -241,7 +242,8 @@ def write_experiments(out: str | Path, truth: Mapping[str, float] | None = None,
                                label=lambda e: e.name):
         recording = record(experiment, values, sensors)
         paths.append(write_recording(recording, out / f"{experiment.name}.csv"))
-    write_parameters(values, out / "truth.json", seed=seed, **about)
+    own = {e.name: dict(e.truth_overrides) for e in experiments or standard_experiments() if e.truth_overrides}
+    write_parameters(values, out / "truth.json", seed=seed, recordings=own, **about)
     paths.append(out / "truth.json")
     return paths
 

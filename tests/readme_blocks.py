@@ -11,11 +11,13 @@ already stands in.
 from __future__ import annotations
 
 import re
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
 RUNNABLE = ("sh", "python")
-FENCE = re.compile(r"^```([\w-]*)[ \t]*\n(.*?)^```[ \t]*$", re.M | re.S)
+# A fence may be indented (a block inside a list item); its lines are then dedented.
+FENCE = re.compile(r"^([ \t]*)```([\w-]*)[ \t]*\n(.*?)^\1```[ \t]*$", re.M | re.S)
 
 
 @dataclass(frozen=True)
@@ -35,7 +37,7 @@ def blocks(readme: Path) -> list[Block]:
     text = readme.read_text()
     found: list[Block] = []
     for match in FENCE.finditer(text):
-        language, code = match.group(1), match.group(2)
+        language, code = match.group(2), textwrap.dedent(match.group(3))
         line = text.count("\n", 0, match.start()) + 1
         if language == "output" and found and found[-1].language in RUNNABLE:
             previous = found.pop()

@@ -150,7 +150,8 @@ def test_the_virtual_rig_draws_a_truth_the_fit_does_not_start_from(tmp_path):
     assert {k: written["parameters"][k] for k in drawn} == drawn
     assert written["seed"] == 4 and "drawn with seed 4" in written["described"]
     decay = json.loads((tmp_path / "rec" / "pendulum-decay.json").read_text())
-    assert "initial" in decay and written["parameters"]["phi0"] == math.pi  # the release angle is the fit's to find
+    assert "phi" not in decay.get("initial", {})  # the release angle is the fit's to find ...
+    assert written["recordings"]["pendulum-decay"]["phi0"] == math.pi + abs(angle)  # ... and truth.json says it
     assert math.isclose(abs(angle), 0.549, abs_tol=5e-4)
 
 
@@ -255,3 +256,11 @@ def test_the_truth_table_survives_a_zero_truth_and_a_missing_interval(tmp_path):
     lines = _truth_lines(tmp_path, result)
     assert "(+0.001) inside its 95 % interval" in lines[1] and lines[2].endswith("no interval")
     assert lines[-1] == "  1 of 1 intervals hold the truth (1 estimates without an interval)"
+
+
+def test_a_bad_decimal_comma_cell_is_shown_as_written(tmp_path):
+    from pendfmu.recording import RecordingError, read_recording
+
+    (tmp_path / "r.csv").write_text("time;I_c\n0;1,5\n0,1;1.234,5\n")
+    with pytest.raises(RecordingError, match=r"line 3, column 'I_c': '1.234,5' is not a number"):
+        read_recording(tmp_path / "r.csv")

@@ -28,9 +28,13 @@ LANGUAGES = {"", "text", "output", *RUNNABLE}
 
 
 def _scratch(folder: Path) -> Path:
-    for entry in ROOT.iterdir():
-        if entry.name not in (".git", "out", ".venv") and not entry.name.startswith(".pytest"):
-            (folder / entry.name).symlink_to(entry)
+    """Links to the checkout's tracked top-level entries and its built FMUs only: what the
+    README's commands write (rec/, rig.json, report/, ...) must land here, never in a
+    checkout where someone followed the README by hand."""
+    tracked = subprocess.run(["git", "-C", str(ROOT), "ls-files"], capture_output=True, text=True, check=True)
+    for name in sorted({line.split("/", 1)[0] for line in tracked.stdout.splitlines()} | {"fmus"}):
+        if (ROOT / name).exists():
+            (folder / name).symlink_to(ROOT / name)
     (folder / ".venv").symlink_to(Path(sys.executable).parent.parent)  # the environment running the tests
     return folder
 

@@ -285,21 +285,19 @@ def _csv_rows(reader, header: list[str], columns: list[int], src: str,
         if len(row) != width:
             raise RecordingError(f"{src}: line {reader.line_num} has {len(row)} cells, the header has {width}")
         cells = row if everything else [row[i] for i in columns]
-        if decimal_comma:
-            cells = [cell.replace(",", ".") for cell in cells]
         try:
-            data.extend(map(float, cells))
+            data.extend(map(float, [cell.replace(",", ".") for cell in cells] if decimal_comma else cells))
         except ValueError:
-            raise _bad_cell(src, reader.line_num, cells, [header[i] for i in columns]) from None
+            raise _bad_cell(src, reader.line_num, cells, [header[i] for i in columns], decimal_comma) from None
         rows += 1
     return data, rows
 
 
-def _bad_cell(src: str, line: int, cells: list[str], names: list[str]) -> RecordingError:
-    """The error for the first cell of a row that float() rejects."""
+def _bad_cell(src: str, line: int, cells: list[str], names: list[str], decimal_comma: bool = False) -> RecordingError:
+    """The error for the first cell of a row that float() rejects, shown as written."""
     for cell, name in zip(cells, names):
         try:
-            float(cell)
+            float(cell.replace(",", ".") if decimal_comma else cell)
         except ValueError:
             what = "an empty cell" if not cell.strip() else f"{cell.strip()!r}"
             return RecordingError(f"{src}: line {line}, column {name!r}: {what} is not a number")

@@ -28,8 +28,10 @@
 static bool accept_from_directory(Instance *inst, const char *guid, const char *directory) {
     char file_name[4200], line[256];
     const size_t length = strlen(directory);
-    snprintf(file_name, sizeof file_name, "%s%s%s", directory,
-             length && directory[length - 1] == LOCAL_PATH_SEPARATOR[0] ? "" : LOCAL_PATH_SEPARATOR, START_FILE);
+    const int written = snprintf(file_name, sizeof file_name, "%s%s%s", directory,
+                                 length && directory[length - 1] == LOCAL_PATH_SEPARATOR[0] ? "" : LOCAL_PATH_SEPARATOR,
+                                 START_FILE);
+    if (written < 0 || (size_t)written >= sizeof file_name) return false; /* a cut path would name another file */
     FILE *file = fopen(file_name, "r");
     if (!file) return false;
     bool accepted = false;
