@@ -264,3 +264,11 @@ def test_a_bad_decimal_comma_cell_is_shown_as_written(tmp_path):
     (tmp_path / "r.csv").write_text("time;I_c\n0;1,5\n0,1;1.234,5\n")
     with pytest.raises(RecordingError, match=r"line 3, column 'I_c': '1.234,5' is not a number"):
         read_recording(tmp_path / "r.csv")
+
+
+def test_a_semicolon_header_with_a_comma_in_it_says_so(tmp_path):
+    from pendfmu.recording import RecordingError, read_recording
+
+    (tmp_path / "r.csv").write_text("time;I_c,raw\n0;1,5\n")
+    with pytest.raises(RecordingError, match="line 1 has both ';' and ','"):
+        read_recording(tmp_path / "r.csv")

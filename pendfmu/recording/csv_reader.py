@@ -251,6 +251,8 @@ def _csv_header(reader, src: str) -> list[str]:
         hint = ""
         if names[0].startswith("#"):
             hint = "; comment lines are not supported, the header must be line 1"
+        elif ";" in names[0]:
+            hint = "; line 1 has both ';' and ',': in a ';'-separated file the header must hold no comma"
         elif len(names) == 1 and " " in names[0]:
             hint = "; cells must be separated by commas, semicolons or tabs and line 1 has none"
         elif "time" in names:
