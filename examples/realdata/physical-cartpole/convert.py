@@ -47,12 +47,13 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
+from pendfmu.fmubuild.compiler import FMUS_DIR
 from pendfmu.recording import Recording, RecordingError, SignalInfo
 
 from _common import REALDATA
 
 CARTPOLE_CSV = REALDATA / "physical-cartpole" / "ICRA_ODE_2.csv"
-CART_FMU = Path(__file__).resolve().parents[3] / "fmus" / "Cart.fmu"
+CART_FMU = FMUS_DIR / "Cart.fmu"  # pendfmu's own FMU folder (built by `pendfmu build`)
 POSITION_PER_COUNT = 9.51e-5  # m, SOURCE.txt (and the log: position = -9.51e-5 position_raw)
 ANGLE_PER_COUNT = 2 * math.pi / 4271.34  # rad, ANGLE_360_DEG_IN_ADC_UNITS of the driver's globals.py
 PWM_PERIOD = 7200  # MOTOR_PWM_PERIOD_IN_CLOCK_CYCLES (STM)
