@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
 import pytest
 
 from pendfmu.fmubuild import build_all
@@ -60,3 +65,40 @@ def interrupt_costs(monkeypatch):
 
     monkeypatch.setattr(Residuals, "sum_of_squares", counted)
     return calls
+
+
+WINE = shutil.which("wine") or shutil.which("wine64")
+
+
+@pytest.fixture(scope="session")
+def wine(request, tmp_path_factory):
+    """Run a Windows program under wine (tests/test_win64*.py): a prefix kept in pytest's
+    cache, no debug output, and one wineserver for the whole session, stopped at its end (a
+    server stopped and started again between test modules raced with the next module's
+    first program).
+
+    Output goes through files, not pipes: wine's background processes (wineserver, the
+    services wineboot starts) inherit the first caller's handles and would keep a pipe open
+    long after the program has exited."""
+    cache = getattr(request.config, "cache", None)  # None with -p no:cacheprovider: a fresh prefix then
+    prefix = cache.mkdir("wine-prefix") if cache else tmp_path_factory.mktemp("wine-prefix")
+    env = {**os.environ, "WINEPREFIX": str(prefix), "WINEDEBUG": "-all", "WINEDLLOVERRIDES": "mscoree,mshtml="}
+    server = shutil.which("wineserver")  # without it on PATH, wine starts one per run (slower, same results)
+    quiet = dict(env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    if server:
+        subprocess.run([server, "-p", "30"], timeout=60, **quiet)
+    subprocess.run([WINE, "wineboot", "--init"], timeout=300, **quiet)  # creates the prefix the first time
+    folder = tmp_path_factory.mktemp("wine-output")
+
+    def run(program: Path, *args: str, stdin: str | None = None) -> subprocess.CompletedProcess:
+        (folder / "stdin").write_text(stdin or "")
+        with open(folder / "stdin") as given, open(folder / "stdout", "w") as out, open(folder / "stderr", "w") as err:
+            done = subprocess.run([WINE, str(program), *args], stdin=given, stdout=out, stderr=err, env=env,
+                                  timeout=300)
+        done.stdout = (folder / "stdout").read_text().replace("\r\n", "\n")
+        done.stderr = (folder / "stderr").read_text()
+        return done
+
+    yield run
+    if server:
+        subprocess.run([server, "-k"], timeout=60, **quiet)

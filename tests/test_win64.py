@@ -20,7 +20,6 @@ persistent wineserver for the module makes each later run ~0.3 s instead of ~3 s
 from __future__ import annotations
 
 import math
-import os
 import re
 import shutil
 import subprocess
@@ -37,11 +36,11 @@ from pendfmu.fmubuild import compiler
 from pendfmu.fmubuild.compiler import FMI_HEADERS, FRAMEWORK_DIR
 
 from fig3 import BREAKAWAY, OMEGA, PARAMETERS
+from conftest import WINE  # the wine fixture lives there, shared by both Windows test files
 
 HERE = Path(__file__).with_name("win64")
 MINGW = shutil.which(compiler.PLATFORMS["win64"].compiler)
 OBJDUMP = shutil.which("x86_64-w64-mingw32-objdump")
-WINE = shutil.which("wine") or shutil.which("wine64")
 TOLERANCE = 1e-12  # absolute, SI units: see the module docstring
 # What a DLL may import: Windows' own libraries, nothing a user would have to ship beside it.
 WINDOWS_SYSTEM_DLLS = re.compile(r"(kernel32|msvcrt|ucrtbase|ntdll|user32|advapi32|api-ms-win-crt-[a-z0-9-]+)\.dll",
@@ -201,39 +200,7 @@ def test_framework_has_no_unguarded_compiler_attribute():
                 assert line.lstrip().startswith("#define"), f"{path.name}:{number}: {line.strip()}"
 
 
-# ---------------------------------------------------------------- wine
-
-
-@pytest.fixture(scope="module")
-def wine(request, tmp_path_factory):
-    """Run a Windows program under wine: a prefix kept in pytest's cache, no debug output,
-    and a wineserver that stays up for the module (stopped at the end).
-
-    Output goes through files, not pipes: wine's background processes (wineserver, the
-    services wineboot starts) inherit the first caller's handles and would keep a pipe open
-    long after the program has exited."""
-    cache = getattr(request.config, "cache", None)  # None with -p no:cacheprovider: a fresh prefix then
-    prefix = cache.mkdir("wine-prefix") if cache else tmp_path_factory.mktemp("wine-prefix")
-    env = {**os.environ, "WINEPREFIX": str(prefix), "WINEDEBUG": "-all", "WINEDLLOVERRIDES": "mscoree,mshtml="}
-    server = shutil.which("wineserver")  # without it on PATH, wine starts one per run (slower, same results)
-    quiet = dict(env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    if server:
-        subprocess.run([server, "-p", "30"], timeout=60, **quiet)
-    subprocess.run([WINE, "wineboot", "--init"], timeout=300, **quiet)  # creates the prefix the first time
-    folder = tmp_path_factory.mktemp("wine-output")
-
-    def run(program: Path, *args: str, stdin: str | None = None) -> subprocess.CompletedProcess:
-        (folder / "stdin").write_text(stdin or "")
-        with open(folder / "stdin") as given, open(folder / "stdout", "w") as out, open(folder / "stderr", "w") as err:
-            done = subprocess.run([WINE, str(program), *args], stdin=given, stdout=out, stderr=err, env=env,
-                                  timeout=300)
-        done.stdout = (folder / "stdout").read_text().replace("\r\n", "\n")
-        done.stderr = (folder / "stderr").read_text()
-        return done
-
-    yield run
-    if server:
-        subprocess.run([server, "-k"], timeout=60, **quiet)
+# ---------------------------------------------------------------- wine (the fixture: conftest.py)
 
 
 def build(cc: str, sources: list[Path], output: Path, *extra: str) -> Path:

@@ -30,9 +30,9 @@ from pendfmu.fmubuild.compiler import FMI_HEADERS, FMI_VERSIONS, PLATFORMS
 
 from fig3 import BREAKAWAY, edges
 from test_win64 import (FIG3, HERE, MINGW, Run, assert_agree, breakaway, build, dll_listing, drivers, needs_mingw,
-                        needs_wine, run_on, trajectory, unpacked, unpacked_fmus, wine)
+                        needs_wine, run_on, trajectory, unpacked, unpacked_fmus)
 
-SHARED_FIXTURES = (wine, drivers, unpacked_fmus)  # test_win64.py's, found by pytest through these names
+SHARED_FIXTURES = (drivers, unpacked_fmus)  # test_win64.py's, found by pytest through these names (wine: conftest)
 FOLDERS = FMI_VERSIONS[3].binaries  # PLATFORMS' key -> x86_64-linux / x86_64-windows
 ONLY_IMPORTS = {"kernel32.dll", "msvcrt.dll"}  # Windows' own: nothing to ship beside the DLL
 

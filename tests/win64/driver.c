@@ -17,51 +17,18 @@
 
 #include "fmi2Functions.h"
 
-#ifdef _WIN32
-#include <windows.h>
-typedef HMODULE Library;
-static Library open_library(const char *path) { return LoadLibraryA(path); }
-static void (*symbol(Library library, const char *name))(void) {
-    return (void (*)(void))GetProcAddress(library, name);
-}
-#else
-#include <dlfcn.h>
-typedef void *Library;
-static Library open_library(const char *path) { return dlopen(path, RTLD_NOW | RTLD_LOCAL); }
-static void (*symbol(Library library, const char *name))(void) {
-    void *address = dlsym(library, name);
-    void (*function)(void);
-    memcpy(&function, &address, sizeof function); /* POSIX: data and function pointers agree */
-    return function;
-}
-#endif
+#include "library.h"
 
-#define MAX_VARIABLES 32
-#define LOAD(name)                                                                \
-    name##TYPE *name = (name##TYPE *)symbol(library, #name);                      \
-    if (!name) {                                                                  \
-        fprintf(stderr, "%s does not export %s\n", argv[1], #name);               \
-        return 2;                                                                 \
-    }
 #define CALL(call)                                                                \
     if ((call) > fmi2Warning) {                                                   \
         fprintf(stderr, "%s failed at t = %.17g\n", #call, t);                    \
         return 1;                                                                 \
     }
 
-
 static void log_to_stderr(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
                           fmi2String message, ...) {
     (void)env, (void)status;
     fprintf(stderr, "[%s] %s: %s\n", name ? name : "?", category ? category : "?", message ? message : "");
-}
-
-static int parse_assignment(const char *text, fmi2ValueReference *vr, double *value) {
-    char *end;
-    *vr = (fmi2ValueReference)strtoul(text, &end, 10);
-    if (*end != '=') return 0;
-    *value = strtod(end + 1, &end);
-    return *end == 0;
 }
 
 int main(int argc, char **argv) {
