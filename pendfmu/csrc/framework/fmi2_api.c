@@ -183,17 +183,8 @@ void fmi2FreeInstance(fmi2Component c) {
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
                                const fmi2String categories[]) {
     CHECK("fmi2SetDebugLogging", ANY_PHASE, ANY_TYPE);
-    bool events = nCategories == 0;
-    for (size_t k = 0; k < nCategories; k++) {
-        if (!categories || !categories[k]) return fail(inst, "fmi2SetDebugLogging: NULL category");
-        if (strcmp(categories[k], "logEvents") == 0) events = true;
-        else if (strcmp(categories[k], "logStatusError") != 0)
-            return fail(inst, "fmi2SetDebugLogging: unknown log category '%s' (known: logEvents, logStatusError)",
-                        categories[k]);
-    }
-    inst->logging_on = loggingOn;
-    inst->log_events = events;
-    return fmi2OK;
+    return instance_set_debug_logging(inst, "fmi2SetDebugLogging", loggingOn, nCategories, categories) ? fmi2OK
+                                                                                                      : fmi2Error;
 }
 
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
@@ -201,11 +192,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
     (void)toleranceDefined;
     (void)tolerance;
     CHECK("fmi2SetupExperiment", FMU_INSTANTIATED, ANY_TYPE);
-    if (!isfinite(startTime)) return fail(inst, "fmi2SetupExperiment: start time %g is not finite", startTime);
-    if (stopTimeDefined && !(stopTime >= startTime))
-        return fail(inst, "fmi2SetupExperiment: stop time %g before start time %g", stopTime, startTime);
-    inst->s.time = startTime;
-    return fmi2OK;
+    return instance_set_start(inst, "fmi2SetupExperiment", startTime, stopTimeDefined, stopTime) ? fmi2OK : fmi2Error;
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {

@@ -250,27 +250,15 @@ void fmi3FreeInstance(fmi3Instance instance) {
 fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, size_t nCategories,
                                const fmi3String categories[]) {
     CHECK("fmi3SetDebugLogging", ANY_PHASE, ANY_INTERFACE);
-    bool events = nCategories == 0;
-    for (size_t k = 0; k < nCategories; k++) {
-        if (!categories || !categories[k]) return fail(inst, "fmi3SetDebugLogging: NULL category");
-        if (strcmp(categories[k], "logEvents") == 0) events = true;
-        else if (strcmp(categories[k], "logStatusError") != 0)
-            return fail(inst, "fmi3SetDebugLogging: unknown log category '%s' (known: logEvents, logStatusError)",
-                        categories[k]);
-    }
-    inst->logging_on = loggingOn;
-    inst->log_events = events;
-    return fmi3OK;
+    return STATUS(instance_set_debug_logging(inst, "fmi3SetDebugLogging", loggingOn, nCategories, categories));
 }
 
 fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined, fmi3Float64 tolerance,
                                        fmi3Float64 startTime, fmi3Boolean stopTimeDefined, fmi3Float64 stopTime) {
     (void)toleranceDefined, (void)tolerance;
     CHECK("fmi3EnterInitializationMode", FMU_INSTANTIATED, ANY_INTERFACE);
-    if (!isfinite(startTime)) return fail(inst, "fmi3EnterInitializationMode: start time %g is not finite", startTime);
-    if (stopTimeDefined && !(stopTime >= startTime))
-        return fail(inst, "fmi3EnterInitializationMode: stop time %g before start time %g", stopTime, startTime);
-    inst->s.time = startTime;
+    if (!instance_set_start(inst, "fmi3EnterInitializationMode", startTime, stopTimeDefined, stopTime))
+        return fmi3Error;
     inst->s.phase = FMU_INITIALIZATION;
     inst->s.outputs = OUTPUTS_STALE;
     return fmi3OK;

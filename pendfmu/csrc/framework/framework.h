@@ -183,6 +183,13 @@ const char *phase_name(FmuPhase phase);
 bool instance_fail(Instance *inst, const char *format, ...) PRINTF_LIKE(2, 3);
 /* Back to the start values, phase FMU_INSTANTIATED (after instantiation and reset). */
 void instance_reset(Instance *inst);
+/* SetDebugLogging: the categories the model description declares (logEvents, logStatusError;
+ * none named: all of them); an unknown one is refused. */
+bool instance_set_debug_logging(Instance *inst, const char *function, bool on, size_t n,
+                                const char *const categories[]);
+/* The start of the simulation (SetupExperiment in FMI 2.0, EnterInitializationMode in 3.0):
+ * a finite start, and a stop time, if given, not before it. */
+bool instance_set_start(Instance *inst, const char *function, double start, bool stop_defined, double stop);
 /* Leave initialization mode: check the parameters, initialize the solver and the outputs;
  * the phase stays the caller's to set. */
 bool instance_exit_initialization(Instance *inst, const char *function);

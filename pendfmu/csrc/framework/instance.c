@@ -113,6 +113,29 @@ void instance_reset(Instance *inst) {
     inst->s.phase = FMU_INSTANTIATED;
 }
 
+bool instance_set_debug_logging(Instance *inst, const char *function, bool on, size_t n,
+                                const char *const categories[]) {
+    bool events = n == 0;
+    for (size_t k = 0; k < n; k++) {
+        if (!categories || !categories[k]) return instance_fail(inst, "%s: NULL category", function);
+        if (strcmp(categories[k], "logEvents") == 0) events = true;
+        else if (strcmp(categories[k], "logStatusError") != 0)
+            return instance_fail(inst, "%s: unknown log category '%s' (known: logEvents, logStatusError)", function,
+                                 categories[k]);
+    }
+    inst->logging_on = on;
+    inst->log_events = events;
+    return true;
+}
+
+bool instance_set_start(Instance *inst, const char *function, double start, bool stop_defined, double stop) {
+    if (!isfinite(start)) return instance_fail(inst, "%s: start time %g is not finite", function, start);
+    if (stop_defined && !(stop >= start))
+        return instance_fail(inst, "%s: stop time %g before start time %g", function, stop, start);
+    inst->s.time = start;
+    return true;
+}
+
 bool instance_exit_initialization(Instance *inst, const char *function) {
     char why[512];
     if (!model_check_parameters(inst, why, sizeof why)) return instance_fail(inst, "%s", why);
