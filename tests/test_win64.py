@@ -211,11 +211,14 @@ def build(cc: str, sources: list[Path], output: Path, *extra: str) -> Path:
 
 @pytest.fixture(scope="module")
 def drivers(tmp_path_factory):
-    """The driver natively and for Windows (static: the .exe needs no mingw DLL either)."""
-    folder = tmp_path_factory.mktemp("win64-driver")
-    source = [HERE / "driver.c"]
-    return {"linux64": build("gcc", source, folder / "driver", "-I", str(FMI_HEADERS), "-ldl"),
-            "win64": build(MINGW, source, folder / "driver.exe", "-static", "-I", str(FMI_HEADERS))}
+    return build_driver("driver", tmp_path_factory.mktemp("win64-driver"))
+
+
+def build_driver(name: str, folder: Path) -> dict[str, Path]:
+    """tests/win64/<name>.c natively and for Windows (static: the .exe needs no mingw DLL either)."""
+    source = [HERE / f"{name}.c"]
+    return {"linux64": build("gcc", source, folder / name, "-I", str(FMI_HEADERS), "-ldl"),
+            "win64": build(MINGW, source, folder / f"{name}.exe", "-static", "-I", str(FMI_HEADERS))}
 
 
 @pytest.fixture(scope="module")

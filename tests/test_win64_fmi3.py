@@ -29,8 +29,8 @@ from pendfmu.fmubuild import build_all
 from pendfmu.fmubuild.compiler import FMI_HEADERS, FMI_VERSIONS, PLATFORMS
 
 from fig3 import BREAKAWAY, edges
-from test_win64 import (FIG3, HERE, MINGW, Run, assert_agree, breakaway, build, dll_listing, drivers, needs_mingw,
-                        needs_wine, run_on, trajectory, unpacked, unpacked_fmus)
+from test_win64 import (FIG3, Run, assert_agree, breakaway, build_driver, dll_listing, drivers, needs_mingw, needs_wine,
+                        run_on, trajectory, unpacked, unpacked_fmus)
 
 SHARED_FIXTURES = (drivers, unpacked_fmus)  # test_win64.py's, found by pytest through these names (wine: conftest)
 FOLDERS = FMI_VERSIONS[3].binaries  # PLATFORMS' key -> x86_64-linux / x86_64-windows
@@ -55,11 +55,7 @@ def unpacked_fmi3(fmi3_fmus, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def drivers3(tmp_path_factory):
-    """driver3.c natively and for Windows (static: the .exe needs no mingw DLL either)."""
-    folder = tmp_path_factory.mktemp("win64-driver3")
-    source = [HERE / "driver3.c"]
-    return {"linux64": build("gcc", source, folder / "driver3", "-I", str(FMI_HEADERS), "-ldl"),
-            "win64": build(MINGW, source, folder / "driver3.exe", "-static", "-I", str(FMI_HEADERS))}
+    return build_driver("driver3", tmp_path_factory.mktemp("win64-driver3"))
 
 
 def resource_path(folder: Path, platform: str) -> str:
