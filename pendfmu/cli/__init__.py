@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from pendfmu import __version__
 from pendfmu.cli import build, check, demo, export, fit, report, rig, simulate, system
-from pendfmu.cli.argv import untangle
+from pendfmu.cli.argv import command_options, untangle
 from pendfmu.errors import EXIT_BAD_INPUT, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, FMUError, Suspicious
 from pendfmu.suggest import did_you_mean
 
@@ -65,10 +65,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _unknown_options(extras: list[str], parser: argparse.ArgumentParser, command: str) -> str:
     """argparse's "unrecognized arguments", with the nearest option of the command."""
-    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[command]
-    known = [flag for action in sub._actions for flag in action.option_strings]
     first = extras[0].split("=", 1)[0]
-    hint = did_you_mean(first, known) if first.startswith("-") else ""
+    hint = did_you_mean(first, sorted(command_options(parser, command))) if first.startswith("-") else ""
     return f"pendfmu {command}: error: unrecognized arguments: {' '.join(extras)}{hint}\n"
 
 
@@ -76,13 +74,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     typed = list(sys.argv[1:] if argv is None else argv)
     flags, words = untangle(typed, parser, POSITIONAL_WORDS)
-    if not [w for w in words if w not in ("-h", "--help", "--version")] and not ({"-h", "--help", "--version"} & set(words)):
+    if not words:
         parser.print_help()  # bare `pendfmu`: what it can do, not an error
         return 0
     command = next((w for w in words if not w.startswith("-")), None)
     if command in SUBCOMMANDS:  # an unknown option first: a typo explains a "required" error that follows it
-        known = {f for a in parser._subparsers._group_actions[0].choices[command]._actions for f in a.option_strings}
-        known |= {f for a in parser._actions for f in a.option_strings}
+        known = command_options(parser, command)
         cut = words.index("--") if "--" in words else len(words)
         unknown = [w for w in words[:cut] if w.startswith("--") and w.split("=", 1)[0] not in known]
         if unknown:

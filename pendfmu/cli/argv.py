@@ -46,6 +46,16 @@ def _options(parser: argparse.ArgumentParser) -> dict[str, argparse.Action]:
     return {flag: action for action in parser._actions for flag in action.option_strings}
 
 
+def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    found = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return dict(found[0].choices) if found else {}
+
+
+def command_options(parser: argparse.ArgumentParser, command: str) -> set[str]:
+    """Every option string `command` accepts, the program's own (--version, --debug) included."""
+    return {*_options(_subcommands(parser)[command]), *_options(parser)}
+
+
 def untangle(argv: Sequence[str], parser: argparse.ArgumentParser,
              positional_words: dict[str, Collection[str]]) -> tuple[list[str], list[str]]:
     """(global flags found, the arguments reordered) for `parser` (the main parser, with
@@ -53,12 +63,12 @@ def untangle(argv: Sequence[str], parser: argparse.ArgumentParser,
     argv = list(argv)
     found = [a for a in argv[: argv.index("--") if "--" in argv else len(argv)] if a in GLOBAL_FLAGS]
     rest = [a for i, a in enumerate(argv) if not (a in GLOBAL_FLAGS and ("--" not in argv or i < argv.index("--")))]
-    subparsers = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    commands = _subcommands(parser)
     command_index = next((i for i, a in enumerate(rest) if not a.startswith("-")), None)
-    if not subparsers or command_index is None or rest[command_index] not in subparsers[0].choices:
+    if command_index is None or rest[command_index] not in commands:
         return found, rest
     command = rest[command_index]
-    options = _options(subparsers[0].choices[command])
+    options = _options(commands[command])
     words = positional_words.get(command, ())
     positionals: list[str] = []
     tail: list[str] = []
