@@ -237,12 +237,12 @@ def write_experiments(out: str | Path, truth: Mapping[str, float] | None = None,
     out.mkdir(parents=True, exist_ok=True)
     values = {**reference_truth(), **(truth or {})}
     sensors = Sensors(values["k_D"], np.random.default_rng(seed))
+    experiments = experiments or standard_experiments()
     paths = []
-    for experiment in progress(experiments or standard_experiments(), "recording the virtual rig",
-                               label=lambda e: e.name):
+    for experiment in progress(experiments, "recording the virtual rig", label=lambda e: e.name):
         recording = record(experiment, values, sensors)
         paths.append(write_recording(recording, out / f"{experiment.name}.csv"))
-    own = {e.name: dict(e.truth_overrides) for e in experiments or standard_experiments() if e.truth_overrides}
+    own = {e.name: dict(e.truth_overrides) for e in experiments if e.truth_overrides}
     write_parameters(values, out / "truth.json", seed=seed, recordings=own, **about)
     paths.append(out / "truth.json")
     return paths
