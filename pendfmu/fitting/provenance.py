@@ -22,15 +22,11 @@ from importlib import metadata
 from pathlib import Path
 
 LIBRARIES = ("numpy", "scipy", "fmpy")
-CHUNK = 1 << 20
 
 
 def sha256(path: Path) -> str:
-    digest = hashlib.sha256()
     with open(path, "rb") as stream:
-        for block in iter(lambda: stream.read(CHUNK), b""):
-            digest.update(block)
-    return digest.hexdigest()
+        return hashlib.file_digest(stream, "sha256").hexdigest()
 
 
 def input_file(path: str | Path) -> dict:
