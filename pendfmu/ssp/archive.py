@@ -44,6 +44,7 @@ def _own_component(fmu: Path) -> str | None:
     from pendfmu.components import ALL_COMPONENTS
     from pendfmu.export.fmu import START_FILE
     from pendfmu.fmubuild import ensure_fmu
+    from pendfmu.fmubuild.compiler import built_guid
 
     description = read_model_description(str(fmu), validate=False)
     kind = description.coSimulation.modelIdentifier if description.coSimulation is not None else None
@@ -52,8 +53,7 @@ def _own_component(fmu: Path) -> str | None:
     with zipfile.ZipFile(fmu) as archive:
         if START_FILE in archive.namelist():
             return kind
-    built = read_model_description(str(ensure_fmu(kind)), validate=False)
-    return kind if built.guid == description.guid else None
+    return kind if built_guid(ensure_fmu(kind)) == description.guid else None  # the build's, parsed once
 
 
 def _start_values(system: System, component: FmuComponent) -> dict[str, float]:
