@@ -272,3 +272,19 @@ def test_a_semicolon_header_with_a_comma_in_it_says_so(tmp_path):
     (tmp_path / "r.csv").write_text("time;I_c,raw\n0;1,5\n")
     with pytest.raises(RecordingError, match="line 1 has both ';' and ','"):
         read_recording(tmp_path / "r.csv")
+
+
+def test_simulate_reads_a_european_recording_like_the_plain_one(tmp_path, capsys):
+    """The columns a simulation may leave alone (a laser's x beside the drive I) are found
+    in a ';' header as in a ',' one: the same rule as the reader's."""
+    from pendfmu.fmubuild import ensure_fmu
+
+    (tmp_path / "plain.csv").write_text("time,I,x_laser\n0,0,0\n0.001,2,0\n0.002,2,0\n")
+    (tmp_path / "european.csv").write_text("time;I;x_laser\n0;0;0\n0,001;2;0\n0,002;2;0\n")
+    outputs = {}
+    for name in ("plain", "european"):
+        assert main(["simulate", "--fmu", str(ensure_fmu("Cart")), "--input", str(tmp_path / f"{name}.csv"),
+                     "--out", str(tmp_path / f"{name}-out.csv")]) == 0
+        assert "note: driven by I; not used: x_laser" in capsys.readouterr().out
+        outputs[name] = (tmp_path / f"{name}-out.csv").read_text()
+    assert outputs["plain"] == outputs["european"]

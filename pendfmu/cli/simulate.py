@@ -80,15 +80,9 @@ def _csv_columns(path: str) -> list[str]:
     """The columns of a CSV recording's header besides time: a simulation drives the model's
     inputs from the columns named after them (or mapped by --drive) and leaves the others
     (the measured outputs a user compares the simulation with) alone, where a fit would
-    refuse a name it does not know. Nothing for a .mat file or an unreadable header (the
-    reader then says what is wrong)."""
+    refuse a name it does not know. Nothing for a .mat file."""
     from pathlib import Path
 
-    if Path(path).suffix.lower() != ".csv":
-        return []
-    try:
-        with open(path, encoding="utf-8-sig") as handle:
-            header = handle.readline()
-    except (OSError, UnicodeDecodeError):
-        return []
-    return [name.strip() for name in header.split(",")[1:] if name.strip()]
+    from pendfmu.recording.csv_reader import signal_columns
+
+    return signal_columns(Path(path)) if Path(path).suffix.lower() == ".csv" else []

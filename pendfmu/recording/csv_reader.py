@@ -83,6 +83,18 @@ def _separator(path: Path) -> str:
     return ";" if ";" in first else "\t" if "\t" in first else ","
 
 
+def signal_columns(path: Path) -> list[str]:
+    """The signal columns line 1 of a CSV recording names (after time), split by the same
+    separator rule the reader uses; nothing for a file that cannot be read (the reader
+    then says why)."""
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as handle:
+            header = next(csv.reader(handle, delimiter=_separator(path)), [])
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return []
+    return [name.strip() for name in header[1:] if name.strip()]
+
+
 def _read_csv(path: Path, sidecar: _Sidecar) -> Recording:
     """Read a CSV recording: the fast path for a plain file, else cell by cell."""
     separator = _separator(path)
