@@ -46,12 +46,9 @@ def legacy_files(directory: Path) -> list[Path]:
     page titled "pendfmu fit report") and the figures that page shows under the names
     pendfmu gave them. Anything else stays."""
     index = directory / "index.html"
-    try:
-        text = index.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
+    if not is_pendfmu_page(index):
         return []
-    if "<title>pendfmu fit report" not in text:
-        return []
+    text = index.read_text(encoding="utf-8", errors="replace")
     shown = set(re.findall(r'<img src="([^"/\\]+)"', text))
     figures = [directory / name for name in sorted(shown) if LEGACY_FIGURE.fullmatch(name)]
     return [index] + [f for f in figures if f.is_file() and not f.is_symlink()]
