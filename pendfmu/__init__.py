@@ -8,15 +8,20 @@ C sources in pendfmu/csrc/ by ``pendfmu build``; their variables are defined onc
 
 The public API (pinned by tests/test_api.py; everything else may change):
 
-fit(model, recordings, ...)
-    Fit a stage of the paper ('current', 'cart', 'pendulum') or a user's FMU or SSP system
-    to recordings; returns a FitResult (pendfmu.fitting.identification.fit).
-fit_all(folder, ...)
-    The paper's sequence of stages on a folder of recordings (pendfmu.fitting.sequence).
-fit_current(recordings, ...)
-    The current stage with its PWM ripple (pendfmu.fitting.ripple).
-FitResult, Estimate
-    A fit's values, intervals, flags, warnings; write_json, write_report, export.
+fit(target, recordings, **options)
+    Fit a stage of the paper ('current', 'cart', 'pendulum'), the paper's sequence on a
+    folder ('all') or a user's FMU or SSP system to recordings; returns a FitResult
+    (pendfmu.fitting.identification). The one front door: `pendfmu fit` calls it too.
+FitSpec
+    What a fit is asked to do, whole: the keywords of fit as one object
+    (pendfmu.fitting.spec).
+FitResult, Estimate, read_result
+    A fit's values, intervals, flags, warnings and provenance; write_json, and a result
+    file read back (pendfmu.fitting.result).
+write_report(result, folder)
+    The HTML report of a result (pendfmu.report).
+export_result(result, folder)
+    Parameterized FMUs, SSV, SSP and Modelica and Simulink files of a result (pendfmu.export).
 GlobalOptions
     The global search's settings: population, generations, workers, Dask scheduler.
 Model
@@ -29,10 +34,12 @@ __version__ = "0.1.0"
 
 _API = {
     "fit": "pendfmu.fitting.identification",
-    "fit_all": "pendfmu.fitting.sequence",
-    "fit_current": "pendfmu.fitting.ripple",
+    "FitSpec": "pendfmu.fitting.spec",
     "FitResult": "pendfmu.fitting.result",
     "Estimate": "pendfmu.fitting.result",
+    "read_result": "pendfmu.fitting.result",
+    "write_report": "pendfmu.report",
+    "export_result": "pendfmu.export",
     "GlobalOptions": "pendfmu.fitting.optimizer",
     "Model": "pendfmu.simulator.model",
     "Recording": "pendfmu.recording",

@@ -89,8 +89,10 @@ def identify(out: Path) -> Path:
     """The paper's method end to end: record the experiments on the virtual rig, fit the
     stages in order from the reference values, write the result, its report and the
     exported FMUs, and plot the unfitted coupled recordings against their prediction."""
-    from pendfmu.fitting.sequence import fit_all
+    from pendfmu.export import export_result
+    from pendfmu.fitting.identification import fit
     from pendfmu.recording import read_recording
+    from pendfmu.report import write_report
     from pendfmu.simulator.rig import simulate_recording
     from pendfmu.virtual_rig import write_experiments
 
@@ -99,11 +101,11 @@ def identify(out: Path) -> Path:
     write_experiments(rig_dir, DEMO_TRUTH, seed=1)
     print("demo: fitting current, cart and pendulum in turn from MODEL.md's reference values, with bootstrap "
           "intervals (about a minute)", flush=True)
-    result = fit_all(rig_dir, seed=1)
+    result = fit("all", rig_dir, seed=1)
     result.write_json(out / "identified.json")
     print("demo: writing the report and the exported FMUs", flush=True)
-    result.write_report(out / "report")
-    result.export(out / "exported")
+    write_report(result, out / "report")
+    export_result(result, out / "exported")
     for warning in result.warnings:
         print(f"warning: {warning}")
     held = write_truth_table(result, out / "identified-vs-truth.csv")

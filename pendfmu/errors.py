@@ -7,14 +7,17 @@ pulling in the others. Each module defines its narrow classes on these bases::
     +-- BadInput (ValueError)      exit 2: the input is wrong; one line naming the file,
     |   |                          column, key or value
     |   +-- UsageError             command-line usage (and what no narrower class covers)
+    |   +-- OptionError            a fit's option that does not apply to its target (fitting.spec)
     |   +-- RecordingError         recording.schema
     |   +-- ParameterFileError     parameters
     |   +-- ParameterError         simulator.component
     |   +-- SspError               ssp
     +-- Suspicious                 exit 3 under --strict: the data look wrong (fitting.plausibility)
     +-- FMUError (RuntimeError)    exit 4: an FMU refused a call (which instance, function,
-        |                          time, what it logged): the model failed, not pendfmu
-        +-- CouplingError          an algebraic loop that did not settle (simulator.coupled)
+    |   |                          time, what it logged): the model failed, not pendfmu
+    |   +-- CouplingError          an algebraic loop that did not settle (simulator.coupled)
+    +-- BuildError (RuntimeError)  exit 5: pendfmu cannot build its FMUs on this machine (no C
+                                   compiler, or the compiler refused the sources)
 
 Anything else reaching the command line is an internal failure (exit 1).
 """
@@ -36,6 +39,18 @@ class UsageError(BadInput):
     """Bad input that no more specific error covers."""
 
 
+class OptionError(BadInput):
+    """An option of a fit that is malformed or does not apply to the fit's target.
+
+    `option` is the specification's field (``fix``, ``bounds``, ...); the API shows it as
+    it is, the command line as its flag (``--fix``), so each says it in its user's words."""
+
+    def __init__(self, option: str, detail: str):
+        super().__init__(f"{option}: {detail}")
+        self.option = option
+        self.detail = detail
+
+
 class Suspicious(PendfmuError):
     """Input that may be right but looks wrong (exit code 3 under --strict)."""
 
@@ -55,6 +70,12 @@ class FMUError(PendfmuError, RuntimeError):
         self.messages = list(messages)
 
 
+class BuildError(PendfmuError, RuntimeError):
+    """The FMUs cannot be built here: no C compiler, the sources missing, or the compiler
+    refused them (the message holds what it printed)."""
+
+
 EXIT_BAD_INPUT = 2
 EXIT_SUSPICIOUS = 3
 EXIT_MODEL_FAILED = 4
+EXIT_BUILD_FAILED = 5

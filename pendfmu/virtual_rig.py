@@ -24,6 +24,7 @@ import numpy as np
 
 from pendfmu.components import COMPONENTS, back_drivable, rig_defaults
 from pendfmu.console import progress
+from pendfmu.fitting.labels import is_own
 from pendfmu.parameters import write_parameters
 from pendfmu.recording import Recording, SignalInfo, quantize, write_recording
 from pendfmu.simulator.component import ComponentFMU
@@ -269,7 +270,7 @@ def against_truth(estimates: Mapping[str, object], truth: Mapping[str, float]) -
     estimates (``phi0[pendulum-decay]``) are left out: their truth is the recording's own."""
     rows = []
     for name, estimate in estimates.items():
-        if "[" in name or name not in truth:
+        if is_own(name) or name not in truth:
             continue
         low, high = estimate.ci95 if estimate.ci95 else (math.nan, math.nan)
         rows.append(TruthRow(name, float(truth[name]), float(estimate.value), float(low), float(high),

@@ -312,7 +312,7 @@ def naive_current_fit(path: Path, start: dict[str, float]) -> tuple[float, int, 
 
 def fitting(quick: bool) -> None:
     from pendfmu.fitting.identification import fit
-    from pendfmu.fitting.sequence import fit_all
+    from pendfmu.fitting.identification import fit
     from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.virtual_rig import write_experiments
 
@@ -328,7 +328,7 @@ def fitting(quick: bool) -> None:
         print(f"  pendfmu:                               {ours:6.3f} s, {result.nfev} simulations "
               f"-> {naive / ours:.1f}x faster ({naive / calls / (ours / result.nfev):.1f}x per simulation)")
         if not quick:
-            wall, result = timed(fit_all, folder, seed=1, progress=False)
+            wall, result = timed(fit, "all", folder, seed=1, progress=False)
             intervals = sum(u.get("seconds", 0.0) for u in result.uncertainty.values())
             print(f"fit all on the standard set: {wall:.1f} s wall, {result.nfev} simulations, "
                   f"{result.failures} failed; of it the bootstrap intervals {intervals:.1f} s")

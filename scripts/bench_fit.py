@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from pendfmu.fitting.sequence import fit_all
+from pendfmu.fitting.identification import fit
 from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.virtual_rig import write_experiments
 
@@ -31,8 +31,8 @@ def main() -> None:
         write_experiments(folder, seed=args.seed)
         print(f"virtual rig: {time.perf_counter() - start:.1f} s")
         start = time.perf_counter()
-        result = fit_all(folder, seed=args.seed, global_search=GlobalOptions(workers=args.workers), progress=False,
-                         uncertainty=args.uncertainty)
+        result = fit("all", folder, seed=args.seed, global_search=GlobalOptions(workers=args.workers), progress=False,
+                     uncertainty=args.uncertainty)
         wall = time.perf_counter() - start
     intervals = sum(u.get("seconds", 0.0) for u in result.uncertainty.values())
     print(f"fit all: {wall:.1f} s wall, {result.nfev} simulations, {result.failures} failed, "

@@ -4,7 +4,7 @@ For each of N truths drawn around MODEL.md's reference rig, the six stage record
 (current steps, three cart runs without pendulum, pendulum decay and rocking) are
 simulated by the independent reference simulator in tests/ (scripts/reference_recordings.py,
 not the FMUs the fit uses), read through the virtual rig's sensors with their own noise
-seed, and fitted by ``pendfmu.fit_all`` from the reference values. Per fitted parameter
+seed, and fitted by ``pendfmu.fit("all", ...)`` from the reference values. Per fitted parameter
 the estimate, the truth, its ``ci95`` and flags go to a JSON-lines file as each truth
 completes; the summary is printed at the end (or from the file with ``--tally``).
 
@@ -21,13 +21,12 @@ not, the gap is a disagreement between the FMUs and the physics, not the interva
     python scripts/coverage.py --tally out/coverage/results-....jsonl
 
 A truth takes about 15 s on a shared 2-core machine: 7 s to generate its recordings
-(cached for later runs) and 5-12 s for fit_all.
+(cached for later runs) and 5-12 s for the fit.
 """
 
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
 import math
 import shutil
@@ -36,7 +35,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from pendfmu.fitting.sequence import fit_all
+from pendfmu.fitting.identification import fit
+from pendfmu.fitting.spec import UNCERTAINTY_METHODS
 from pendfmu.virtual_rig import draw_truth, write_experiments
 
 from coverage_tally import STAGE_PARAMETERS, covers, print_summary, read_results
@@ -72,7 +72,7 @@ def recordings(out: Path, seed: int, index: int, simulator: str = "reference") -
 
 
 def stage_view(folder: Path, stages: tuple[str, ...], into: Path) -> Path:
-    """A folder with only the recordings of `stages` (symbolic links), for fit_all."""
+    """A folder with only the recordings of `stages` (symbolic links), for fit all."""
     for csv in folder.glob("*.csv"):
         if STAGE_OF_RECORDING.get(csv.stem) in stages:
             for path in (csv, csv.with_suffix(".json")):
@@ -88,8 +88,8 @@ def fit_truth(folder: Path, seed: int, index: int, stages: tuple[str, ...], meth
     extra = {"uncertainty": method} if method else {}
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        result = fit_all(stage_view(folder, stages, Path(tmp)), params=known or None, seed=index,
-                         progress=False, **extra)
+        result = fit("all", stage_view(folder, stages, Path(tmp)), params=known or None, seed=index,
+                     progress=False, **extra)
     seconds = time.perf_counter() - start
     truths = {**truth, "phi0[pendulum-decay]": math.pi + angle}
     estimates = {label: {"value": e.value, "truth": truths.get(label), "stderr": e.stderr,
@@ -103,12 +103,8 @@ def fit_truth(folder: Path, seed: int, index: int, stages: tuple[str, ...], meth
 
 
 def check_method(method: str | None) -> None:
-    if method is None:
-        return
-    parameters = inspect.signature(fit_all).parameters
-    if "uncertainty" not in parameters and not any(p.kind is p.VAR_KEYWORD for p in parameters.values()):
-        sys.exit(f"--method {method}: this pendfmu's fit_all() takes no 'uncertainty' keyword yet (the interval "
-                 f"method is being rebuilt); run without --method to measure today's Jacobian intervals")
+    if method is not None and method not in UNCERTAINTY_METHODS:
+        sys.exit(f"--method {method}: one of {', '.join(UNCERTAINTY_METHODS)}")
 
 
 def main() -> None:
@@ -117,7 +113,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0, help="series of truths and noise seeds (default 0)")
     parser.add_argument("--start", type=int, default=0, help="first truth index, to resume or extend (default 0)")
     parser.add_argument("--out", type=Path, default=Path("out/coverage"), help="recordings cache and results")
-    parser.add_argument("--method", help="passed to fit_all as uncertainty=METHOD (default: fit_all's own)")
+    parser.add_argument("--method", help="the fit's uncertainty=METHOD (default: the fit's own)")
     parser.add_argument("--stages", default="current,cart,pendulum",
                         help="comma-separated subset of current,cart,pendulum; the others are fixed at the truth")
     parser.add_argument("--simulator", choices=("reference", "fmu"), default="reference",

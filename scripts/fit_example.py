@@ -25,8 +25,8 @@ def main(out: Path) -> pendfmu.FitResult:
     for label, estimate in result.estimates.items():
         print(f"{label:10s} {estimate.value:.6g}  95 % interval {estimate.ci95}  {'; '.join(estimate.flags)}")
     result.write_json(out / "current.json")
-    result.write_report(out / "report")
-    result.export(out / "exported")
+    pendfmu.write_report(result, out / "report")
+    pendfmu.export_result(result, out / "exported")
     return result
 
 

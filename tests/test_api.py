@@ -9,11 +9,12 @@ import inspect
 
 import pendfmu
 
-PUBLIC = ["__version__", "fit", "fit_all", "fit_current", "FitResult", "Estimate", "GlobalOptions", "Model",
-          "Recording", "read_recording", "write_recording"]
-FIT_PARAMETERS = ["model", "recordings", "params", "free", "fix", "bounds", "seed", "drive", "cost", "global_search",
-                  "progress", "checkpoint", "warn", "strict", "uncertainty", "replicates", "upstream", "match",
-                  "initial", "interpolation", "per_recording", "windows", "segment", "start"]
+PUBLIC = ["__version__", "fit", "FitSpec", "FitResult", "Estimate", "read_result", "write_report", "export_result",
+          "GlobalOptions", "Model", "Recording", "read_recording", "write_recording"]
+FIT_PARAMETERS = ["target", "recordings", "params", "progress", "checkpoint", "warn", "strict", "options"]
+SPEC_FIELDS = ["target", "recordings", "params", "free", "fix", "bounds", "drive", "match", "initial", "interpolation",
+               "per_recording", "windows", "segment", "start", "cost", "harmonic", "seed", "global_search",
+               "uncertainty", "replicates"]
 
 
 def test_the_public_names_are_pinned():
@@ -33,6 +34,18 @@ def test_fit_takes_the_documented_parameters():
     documented = pendfmu.fit.__doc__
     for name in FIT_PARAMETERS:
         assert name in documented, f"fit's docstring does not describe {name!r}"
+
+
+def test_the_specification_keeps_its_fields_and_documents_each():
+    """fit's keywords are FitSpec's fields: each is named in fit's docstring and described in
+    FitSpec's Attributes section."""
+    import dataclasses
+
+    assert [f.name for f in dataclasses.fields(pendfmu.FitSpec)] == SPEC_FIELDS
+    attributes = pendfmu.FitSpec.__doc__.split("Attributes", 1)[1]
+    for name in SPEC_FIELDS:
+        assert f"\n    {name}" in attributes or f", {name}" in attributes, f"FitSpec does not describe {name!r}"
+        assert name in pendfmu.fit.__doc__ or name in ("target", "recordings"), name
 
 
 def test_every_public_callable_says_what_it_does():

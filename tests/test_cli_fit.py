@@ -54,14 +54,14 @@ def test_fit_all_on_an_empty_folder_is_exit_2(tmp_path, capsys):
 def test_a_model_that_misses_part_of_the_recording_is_reported(tmp_path):
     """Fitting the current loop without its ripple harmonic to a recording that has one: the
     residuals stand far above the ADC noise, and the result says so."""
-    from pendfmu.fitting.ripple import fit_current
+    from pendfmu.fitting.identification import fit
     from pendfmu.virtual_rig import Experiment, steps, write_experiments
 
     experiment = Experiment("rippled", "current", 0.012, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))
     write_experiments(tmp_path, {"a_h": 0.05, "f_h": 3000.0}, seed=4, experiments=[experiment])
-    without = fit_current([tmp_path / "rippled.csv"], harmonic=False, seed=1, progress=False)
+    without = fit("current", [tmp_path / "rippled.csv"], harmonic="off", seed=1, progress=False)
     assert any("times the sensor noise" in warning for warning in without.warnings)
-    with_ripple = fit_current([tmp_path / "rippled.csv"], seed=1, progress=False)
+    with_ripple = fit("current", [tmp_path / "rippled.csv"], seed=1, progress=False)
     assert not any("times the sensor noise" in warning for warning in with_ripple.warnings)
 
 

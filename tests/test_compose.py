@@ -31,7 +31,8 @@ def write_loop(tmp_path, extra=()):
 
 
 def test_the_composed_loop_runs_as_the_independent_one(tmp_path):
-    from pendfmu.fitting.models import load_model, simulate_model
+    from pendfmu.simulator.model import Model
+    from pendfmu.fitting.models import simulate_model
     from pendfmu.recording import Recording
 
     code, ssp = write_loop(tmp_path)
@@ -45,7 +46,7 @@ def test_the_composed_loop_runs_as_the_independent_one(tmp_path):
         "w -> Cart.w"]
     assert system.parameters["Controller"]["n_d"].value == 2 and system.parameters["Controller"]["n_d"].type == "Integer"
     t, r = reference_signal()
-    model = load_model(ssp)
+    model = Model.load(ssp)
     recording = Recording(tmp_path / "reference.csv", t, {"qg": r}, vocabulary=model.vocabulary(["qg"]))
     out = simulate_model(model, recording, {}, drive={"Controller.r": "qg"})
     x, u = python_closed_loop(t, r)
@@ -61,8 +62,8 @@ def test_without_system_connectors_for_ecos_and_libcosim(tmp_path):
     assert code == 0
     system = read_ssp(ssp)
     assert system.connectors == () and len(system.connections) == 2
-    from pendfmu.fitting.models import load_model
-    assert "Controller.r" in load_model(ssp).names("input")
+    from pendfmu.simulator.model import Model
+    assert "Controller.r" in Model.load(ssp).names("input")
 
 
 def test_set_comes_after_params(tmp_path):
@@ -95,7 +96,8 @@ def test_mistakes_are_named(tmp_path, capsys, arguments, message):
 def test_one_system_input_feeds_every_input_it_is_wired_to(tmp_path):
     """Two current loops with different time constants behind one system input: a recording's
     column drives both, each as it does alone (the first-order lag of MODEL.md)."""
-    from pendfmu.fitting.models import load_model, simulate_model
+    from pendfmu.simulator.model import Model
+    from pendfmu.fitting.models import simulate_model
     from pendfmu.recording import Recording
     from pendfmu.ssp import Connection, Connector, write_ssp
     from pendfmu.ssp.compose import compose
@@ -110,7 +112,7 @@ def test_one_system_input_feeds_every_input_it_is_wired_to(tmp_path):
     for name, tau in (("A", 1e-3), ("B", 2e-3)):
         description = read_model_description(str(tmp_path / "two" / "resources" / f"{name}.fmu"))
         assert next(float(v.start) for v in description.modelVariables if v.name == "T_i") == tau
-    model = load_model(ssp)
+    model = Model.load(ssp)
     t = np.arange(101) * 1e-4
     recording = Recording(tmp_path / "step.csv", t, {"I_c": np.where(t > 0, 0.1, 0.0)},
                           vocabulary=model.vocabulary())

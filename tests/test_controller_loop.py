@@ -107,11 +107,12 @@ def reference():
 def test_closed_loop_through_the_model_layer(loop_ssp, reference):
     """What `pendfmu simulate --system` runs: the SSP read back, the recorded column driving
     Controller.r, the master stepping the coupled pair at the recording's samples."""
-    from pendfmu.fitting.models import load_model, simulate_model
+    from pendfmu.simulator.model import Model
+    from pendfmu.fitting.models import simulate_model
     from pendfmu.recording import Recording
 
     t, r, x, u = reference
-    model = load_model(loop_ssp)
+    model = Model.load(loop_ssp)
     assert model.order == [["Cart", "Controller"]]  # they feed each other: one coupled group
     assert model.defaults()["n_d"] == 2 and model.defaults()["derivative_on_measurement"] == 1.0
     recording = Recording(loop_ssp.parent / "reference.csv", t, {"qg": r}, vocabulary=model.vocabulary(["qg"]))

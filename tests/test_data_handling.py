@@ -310,7 +310,7 @@ def test_a_models_segments_start_from_the_slope_of_their_readings():
     t = np.arange(0, 1.6, 1e-3)
     current = smooth_current(t) + 1.0
     x = np.round(cart_run(t, current, {}, x0=0.02, v0=0.15) / STEP_X) * STEP_X
-    model = pendfmu.fitting.models.load_model(ensure_fmu("Cart"))
+    model = pendfmu.simulator.model.Model.load(ensure_fmu("Cart"))
     rec = Recording(None, t, {"I": current, "x": x}, signal_info={"x": SignalInfo(STEP_X)},
                     vocabulary=model.vocabulary())
     known = {"m_p": 0.0, "eta": 0.4, "F_Sc": 0.0, "k_fwc": 20.0, "F_Kc": 2.0}

@@ -88,12 +88,13 @@ def test_an_fmu_without_reset_is_instantiated_anew_per_run(tmp_path):
     """NoStateCart's fmi2Reset fails and it cannot save its state: a fit still runs
     (each evaluation instantiates it again) and finds its gain and damping."""
     import pendfmu
-    from pendfmu.fitting.models import load_model, simulate_model
+    from pendfmu.simulator.model import Model
+    from pendfmu.fitting.models import simulate_model
     from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.recording import Recording, SignalInfo
 
     fmu = build("NoStateCart", tmp_path)
-    model = load_model(fmu)
+    model = Model.load(fmu)
     time = np.arange(0, 1.0, 1e-3)
     u = np.where(time > 0.1, 2.0, 0.0)
     truth = {"k": 3.0, "c": 5.0}

@@ -13,7 +13,8 @@ import pytest
 
 from foreign.build import build
 from foreign.recordings import FIT_NAMES, FITTED, TRUTH, write_recordings
-from pendfmu.fitting.models import initial_map, load_model, model_experiments, model_free_parameters, read_for
+from pendfmu.fitting.models import initial_map, model_experiments, model_free_parameters, read_for
+from pendfmu.simulator.model import Model
 from pendfmu.fitting.optimizer import local_search
 from pendfmu.fitting.residuals import Residuals, unit_of
 
@@ -27,7 +28,7 @@ def cart(tmp_path_factory):
 
 
 def _residuals(fmu, paths, fitted=FITTED) -> tuple[Residuals, np.ndarray]:
-    model = load_model(fmu)
+    model = Model.load(fmu)
     start = {name: TRUTH[name] * (1.3 if k % 2 == 0 else 0.7) for k, name in enumerate(FITTED)}
     values = {**model.defaults(), "m": TRUTH["m"], **start}
     initial = initial_map(model, None)

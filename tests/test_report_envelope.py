@@ -1,4 +1,4 @@
-"""The display envelope (pendfmu/report/envelope.py): long signals reduced for plotting
+"""The display envelope (pendfmu/fitting/envelope.py): long signals reduced for plotting
 and storing without hiding a sample.
 
 Checked against its definition, bucket by bucket, with a brute-force loop: the kept
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pendfmu.report.envelope import BUCKETS, FULL_RESOLUTION_UP_TO, bucket_edges, envelope_indices
+from pendfmu.fitting.envelope import BUCKETS, FULL_RESOLUTION_UP_TO, bucket_edges, envelope_indices
 
 
 def within_each_bucket(values: np.ndarray, kept: np.ndarray, buckets: int) -> None:

@@ -21,7 +21,8 @@ from pendfmu.components import rig_defaults
 from pendfmu.fitting.stages import make_experiment
 from pendfmu.fitting.plausibility import check_experiment
 from pendfmu.recording import read_recording
-from pendfmu.fitting.result import Estimate, FitResult, interval
+from pendfmu.fitting.result import Estimate, FitResult
+from pendfmu.fitting.statistics import interval
 from pendfmu.virtual_rig import Experiment, write_experiments
 
 

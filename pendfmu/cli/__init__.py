@@ -3,7 +3,8 @@
 One module per subcommand, each with ``add_arguments(parser)`` and ``run(args)``.
 Exit codes (a contract other tools script against): 0 success, 2 bad input (a one-line
 message naming the file, column or value; no traceback), 1 internal failure, 3 warnings
-under ``--strict`` (suspicious data: nothing fitted; a suspicious result: written).
+under ``--strict`` (suspicious data: nothing fitted; a suspicious result: written), 4 the
+model failed (an FMU refused a value or a step), 5 the FMUs cannot be built here.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from collections.abc import Sequence
 from pendfmu import __version__
 from pendfmu.cli import build, check, demo, export, fit, report, rig, simulate, system
 from pendfmu.cli.argv import command_options, untangle
-from pendfmu.errors import EXIT_BAD_INPUT, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, FMUError, Suspicious
+from pendfmu.errors import (EXIT_BAD_INPUT, EXIT_BUILD_FAILED, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, BuildError,
+                            FMUError, OptionError, Suspicious)
 from pendfmu.suggest import did_you_mean
 
 SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export,
@@ -63,6 +65,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+FLAGS = {"windows": "--window", "global_search": "--no-global", "global_search.popsize": "--population",
+         "global_search.maxiter": "--generations", "global_search.workers": "--workers",
+         "recordings": "recordings", "target": "the stage or model"}
+
+
+def flag_of(option: str) -> str:
+    """The command line's name of a fit specification's field (fitting.spec)."""
+    return FLAGS.get(option, f"--{option.replace('_', '-')}")
+
+
 def _unknown_options(extras: list[str], parser: argparse.ArgumentParser, command: str) -> str:
     """argparse's "unrecognized arguments", with the nearest option of the command."""
     first = extras[0].split("=", 1)[0]
@@ -94,6 +106,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.command_line = ["pendfmu", *typed]  # a result's provenance: as the user typed it
     try:
         return args.run(args) or 0
+    except OptionError as error:  # the API's field name, said as the flag the user typed
+        print(f"pendfmu {args.command}: error: {flag_of(error.option)}: {error.detail}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except BadInput as error:
         print(f"pendfmu {args.command}: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -103,6 +118,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except FMUError as error:
         print(f"pendfmu {args.command}: the model failed: {error}", file=sys.stderr)
         return EXIT_MODEL_FAILED
+    except BuildError as error:
+        print(f"pendfmu {args.command}: cannot build the FMUs: {error}", file=sys.stderr)
+        return EXIT_BUILD_FAILED
     except KeyboardInterrupt:
         print(f"pendfmu {args.command}: interrupted", file=sys.stderr)
         return 130

@@ -56,9 +56,10 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--input needs --reference (the stimulus goes with reference results)")
     if args.fmu or args.system:
         from pendfmu.export.model import export_model
-        from pendfmu.fitting.models import checked_values, load_model
+        from pendfmu.fitting.models import checked_values
+        from pendfmu.simulator.model import Model
 
-        model = load_model(args.fmu or args.system)
+        model = Model.load(args.fmu or args.system)
         values = read_parameters(args.params, lambda given, where: checked_values(model, given, where))
         for path in _with_references(export_model(model, values, args.out, source=args.params), args):
             print(f"wrote {path}")

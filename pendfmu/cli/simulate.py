@@ -62,10 +62,11 @@ def _simulate_model(args: argparse.Namespace):
     """A user's FMU or SSP system driven by the recording, at the recording's time stamps
     (the model's own communication points: --step is the rig's); with the columns that
     drove it and all the recording's columns."""
-    from pendfmu.fitting.models import checked_values, initial_map, load_model, mapping, read_for, simulate_model
+    from pendfmu.fitting.models import checked_values, initial_map, mapping, read_for, simulate_model
+    from pendfmu.simulator.model import Model
     from pendfmu.parameters import read_parameters
 
-    model = load_model(args.fmu or args.system)
+    model = Model.load(args.fmu or args.system)
     parameters = read_parameters(args.params, lambda values, where: checked_values(model, values, where)) \
         if args.params else {}
     drive = mapping(args.drive)

@@ -31,7 +31,7 @@ from pendfmu.export.plan import ExportPlan, plan_export
 from pendfmu.export.simulink import block_values, write_simulink_files
 from pendfmu.export.ssv import write_parameter_values
 
-__all__ = ["ExportPlan", "START_FILE", "export_all", "plan_export", "write_export"]
+__all__ = ["ExportPlan", "START_FILE", "export_all", "export_result", "plan_export", "write_export"]
 
 SSV_FILE = "parameters.ssv"
 MODELICA_FILE = "modifiers.mo"
@@ -67,3 +67,15 @@ def export_all(parameters: Mapping[str, object], out_dir: str | Path, *, compone
     ParameterFileError for an unknown name or a value a component cannot take.
     """
     return write_export(plan_export(parameters, components, source), out_dir)
+
+
+def export_result(result, out_dir: str | Path) -> list[Path]:
+    """The files of `export_all` for a fit result (fitting.result.FitResult): pendfmu's
+    components with the rig's values, or, for a fit of a user's FMU or SSP system, a copy
+    of that model with the fitted values as its start values (export.model)."""
+    if result.model:
+        from pendfmu.export.model import export_model
+        from pendfmu.simulator.model import Model
+
+        return export_model(Model.load(result.model), result.parameters, out_dir, f"a pendfmu fit ({result.stage})")
+    return export_all(result.parameters, out_dir)

@@ -40,7 +40,8 @@ from pendfmu.fitting.experiment import Experiment
 from pendfmu.fitting.optimizer import local_search, snap_to_bounds
 from pendfmu.recording import quantize
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical
-from pendfmu.fitting.result import Estimate, add_flags, clip_to_range, correlation_table, positive
+from pendfmu.fitting.result import Estimate
+from pendfmu.fitting.statistics import add_flags, clip_to_range, correlation_table, positive
 
 REPLICATES = 24
 GRID = 1e-6  # the estimate is rounded to this in the unit box before the replicates are made

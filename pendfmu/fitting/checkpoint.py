@@ -44,6 +44,22 @@ def fingerprint(*parts: object, files: list[Path] = ()) -> str:
     return digest.hexdigest()
 
 
+def spec_fingerprint(spec) -> str:
+    """The fingerprint of a fit's specification (spec.FitSpec): what it asks and the bytes
+    of every file it reads. Where the candidates run (workers, a Dask scheduler) changes no
+    cost, so a fit may resume on another machine."""
+    request = spec.request()
+    request["global_search"] = {k: v for k, v in request["global_search"].items() if k not in ("workers", "scheduler")}
+    files = []
+    model = (spec.target,) if spec.kind == "model" else ()
+    for item in (*spec.recordings, *model, spec.params):
+        if isinstance(item, (str, Path)) and Path(item).is_dir():
+            files += sorted(f for f in Path(item).iterdir() if f.suffix.lower() in (".csv", ".mat") and f.is_file())
+        elif isinstance(item, (str, Path)) and Path(item).is_file():
+            files.append(Path(item))
+    return fingerprint(request, files=files)
+
+
 @dataclass
 class Checkpoint:
     path: Path

@@ -24,7 +24,7 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from pendfmu.errors import BadInput
+from pendfmu.errors import BadInput, OptionError
 from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare, through_sensor
 from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.recording import Recording, read_recording
@@ -33,18 +33,6 @@ from pendfmu.simulator.model import Model, ModelError
 from pendfmu.suggest import did_you_mean
 
 SEARCH_DECADE = 10.0
-
-
-def load_model(model: str | Path | Model) -> Model:
-    """A Model from an FMU or SSP file (or the Model itself)."""
-    if isinstance(model, Model):
-        return model
-    path = Path(model)
-    if path.suffix.lower() == ".fmu":
-        return Model.from_fmu(path)
-    if path.suffix.lower() == ".ssp":
-        return Model.from_ssp(path)
-    raise ModelError(f"{model}: a model is an FMU (.fmu) or an SSP system (.ssp)")
 
 
 def mapping(items: Mapping[str, str] | Sequence[str] | None) -> dict[str, str] | None:
@@ -135,8 +123,8 @@ def model_setup(model: Model, recording: Recording, drive: Mapping[str, str] | N
     for name in match:
         model.resolve(name, "output")
     if not match:
-        raise BadInput(f"{recording.path}: no recorded column is an output of {model.name} (outputs: "
-                       f"{', '.join(model.names('output'))}); name them with match (--match OUTPUT=COLUMN)")
+        raise OptionError("match", f"{recording.path}: no recorded column is an output of {model.name} (outputs: "
+                                   f"{', '.join(model.names('output'))}); name them: OUTPUT=COLUMN")
     starts = tuple(StartState(parameter, signal.rstrip("'"), rate=signal.endswith("'"))
                    for signal, parameter in (initial or {}).items() if signal.rstrip("'") in columns)
     return Setup(model.name, model, {name: (column, interpolation) for name, column in drive.items()}, dict(match),
@@ -165,17 +153,22 @@ def model_free_parameters(model: Model, free: Sequence[str], fix: Sequence[str],
     recording's own (initial states with boxes from its data, others as the shared)."""
     own = [name for e in experiments for name in e.estimated]
     if not free and not own:
-        raise BadInput(f"name the parameters of {model.name} to fit (free=... or --free NAME ...); its "
+        raise OptionError("free", f"name the parameters of {model.name} to fit; its "
                        f"parameters: {', '.join(n for n in model.names('parameter') if '.' not in n)}")
     columns = {c for e in experiments for c in (*e.match.values(), *(c for c, _ in e.setup.drives.values()))}
     for name in [*free, *fix, *bounds, *own]:
         if not is_measurement(name, columns):
             model.resolve(name, "parameter")
-    valid = [n for n in free if n not in fix] + [n for n in dict.fromkeys(own) if n not in fix]
+    fitted = [*free, *(n for n in dict.fromkeys(own) if n not in free)]
+    for name in fix:
+        if name not in fitted:
+            raise OptionError("fix", f"{model.name} does not fit {name!r}{did_you_mean(name, fitted)}, so there is "
+                                     f"nothing to keep fixed (it fits {', '.join(fitted)})")
+    valid = [n for n in fitted if n not in fix]
     unknown = [name for name in bounds if name not in valid]
     if unknown:
-        raise BadInput(f"bounds for {unknown[0]!r}, which this fit does not estimate{did_you_mean(unknown[0], valid)}; "
-                       f"its free parameters: {', '.join(valid)}")
+        raise OptionError("bounds", f"{unknown[0]!r} is not estimated by this fit of {model.name}"
+                                    f"{did_you_mean(unknown[0], valid)}; its free parameters: {', '.join(valid)}")
     result = []
     for name in free:
         if name in fix or name in own:
@@ -216,8 +209,8 @@ def _box(model: Model, name: str, start: float | None) -> tuple[float, float]:
     if math.isfinite(low) and math.isfinite(high) and high > low:
         return low, high
     if start is None or start == 0 or not math.isfinite(start):
-        raise BadInput(f"parameter {name}: no search box: its start value is {start} and the FMU declares no finite "
-                       f"range; give one with bounds (--bounds {name}=LOW:HIGH)")
+        raise OptionError("bounds", f"{name}: no search box: its start value is {start} and the model declares no "
+                                    f"finite range; give one: {name}=LOW:HIGH")
     around = sorted((start / SEARCH_DECADE, start * SEARCH_DECADE))
     return max(low, around[0]), min(high, around[1])
 

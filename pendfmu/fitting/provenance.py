@@ -68,28 +68,53 @@ def environment() -> dict:
             "date": datetime.now(timezone.utc).isoformat(timespec="seconds")}
 
 
-def stage_record(stage: str, seed: int, free: Sequence, start: Sequence[float], values: Mapping[str, float],
-                 cost: str, model: str | None = None) -> dict:
-    """One stage's set-up: its free parameters with search bounds and start values (by
-    label: a recording's own parameter is phi0[run1]), and the fixed values it ran with."""
+def stage_record(problem, spec, start: Sequence[float]) -> dict:
+    """One stage's (or model's) set-up as it was fitted: its free parameters with search
+    boxes, scales and start values (by label: a recording's own parameter is phi0[run1]),
+    the fixed values it ran with, each recording's drives and matches, and the settings of
+    the search and the intervals. Read from the problem that was solved, not from the
+    options that were asked for, so that an option that changed nothing shows as such."""
+    free = problem.free
     free_names = {p.name for p in free if p.experiment is None}
+    search = spec.global_search
     return {
-        "stage": stage, "seed": int(seed), "cost": cost, **({"model": model} if model else {}),
+        "stage": problem.name, "seed": spec.seed_value, "cost": spec.cost,
+        **({"model": problem.model_file} if problem.model_file else {}),
         "free": [p.label for p in free],
         "bounds": {p.label: [float(p.low), float(p.high)] for p in free},
+        "scale": {p.label: "log" if p.log else "linear" for p in free},
+        "relative_to": {p.label: p.relative_to for p in free if p.relative_to},
         "start": {p.label: float(v) for p, v in zip(free, start)},
-        "fixed": {name: float(v) for name, v in sorted(values.items()) if name not in free_names},
+        "fixed": {name: float(v) for name, v in sorted(problem.values.items()) if name not in free_names},
+        "recordings": {e.name: _experiment_record(e) for e in problem.experiments},
+        "search": {"global": search.enabled, "popsize": search.popsize, "maxiter": search.maxiter,
+                   "workers": search.workers, "scheduler": search.scheduler},
+        "uncertainty": {"method": spec.uncertainty,
+                        **({"replicates": spec.replicate_count} if spec.uncertainty == "bootstrap" else {})},
+        **({"harmonic": spec.harmonic} if problem.name == "current" else {}),
     }
 
 
-def fit_record(stage: str, recordings: Iterable, seed: int, free: Sequence, start: Sequence[float],
-               values: Mapping[str, float], cost: str, model: str | None = None) -> dict:
-    """The provenance of one fit: environment, input files, and its stage's set-up."""
-    inputs = recording_files(recordings)
-    if model:
-        inputs.append(input_file(model))
-    return {**environment(), "seed": int(seed), "inputs": inputs,
-            "stages": {stage: stage_record(stage, seed, free, start, values, cost, model)}}
+def _experiment_record(experiment) -> dict:
+    """What one recording (window, segment) was fitted with: its span, its drives (model
+    input -> recorded column and interpolation), matches and own values."""
+    recording = experiment.recording
+    span = [float(recording.time[0]), float(recording.time[-1])]
+    return {"file": str(recording.path) if recording.path else None, "span": span,
+            "drives": {name: list(drive) for name, drive in experiment.setup.drives.items()},
+            "match": dict(experiment.match), "estimated": sorted(experiment.estimated),
+            "starts": [[s.parameter, s.column + ("'" if s.rate else "")] for s in experiment.setup.starts],
+            "sidecar": sorted(recording.parameters)}
+
+
+def fit_record(problem, spec, start: Sequence[float]) -> dict:
+    """The provenance of one fit: environment, input files, the request (the FitSpec as
+    given) and its stage's set-up as fitted."""
+    inputs = recording_files(e.recording for e in problem.experiments)
+    if problem.model_file:
+        inputs.append(input_file(problem.model_file))
+    return {**environment(), "seed": spec.seed_value, "inputs": inputs, "request": spec.request(),
+            "stages": {problem.name: stage_record(problem, spec, start)}}
 
 
 def merged(records: Sequence[Mapping], extra_inputs: Iterable = ()) -> dict:

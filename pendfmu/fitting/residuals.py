@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendfmu.fitting.experiment import Experiment
+from pendfmu.fitting.labels import label
 from pendfmu.recording.measurement import sensed
 from pendfmu.simulator.component import FMUError
 from pendfmu.simulator.replay import InstancePool, Replay
@@ -53,7 +54,7 @@ class FreeParameter:
 
     @property
     def label(self) -> str:
-        return self.name if self.experiment is None else f"{self.name}[{self.experiment}]"
+        return label(self.name, self.experiment)
 
     def value(self, u: float) -> float:
         """The coordinate's own value (a ratio, for a relative parameter)."""

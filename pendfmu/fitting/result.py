@@ -1,13 +1,9 @@
-"""The result of a fit: values, uncertainty, identifiability flags, fit quality.
+"""The result of a fit, as a plain container: values, intervals, flags, fit statistics,
+provenance; and its file (write_json, read_result).
 
-Uncertainty comes from the Jacobian J of the scaled residuals at the optimum (in the
-unit box): cov = s^2 (J^T J)^+, with s^2 the residual variance per degree of freedom,
-carried to each parameter through its mapping (so log-mapped intervals stay positive).
-A parameter is flagged, with the reason, when it sits at a bound, when its 95 % interval
-is wider than its value, when it correlates above 0.95 with another, or when the
-recordings do not depend on it at all (a zero Jacobian column). Parameters a recording
-only bounds (the pendulum's stiction in a free decay) carry the interval they are
-confined to instead of a standard error.
+What the numbers mean and how they were computed lives beside the code that computes
+them (statistics.py, uncertainty.py, stiction.py); how they are shown lives in the report
+(pendfmu.report), which reads results and is never read by them.
 """
 
 from __future__ import annotations
@@ -19,10 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.fitting.residuals import FreeParameter, physical, physical_jacobian
-
-Z95 = 1.959963984540054
-CORRELATION_LIMIT = 0.95
+from pendfmu.fitting.envelope import envelope_indices
+from pendfmu.fitting.labels import is_own, label
 
 
 @dataclass
@@ -104,7 +98,7 @@ class FitResult:
         return {k: e.flags for k, e in self.estimates.items() if e.flags}
 
     def to_dict(self) -> dict:
-        shared = {k: e for k, e in self.estimates.items() if "[" not in k}
+        shared = {k: e for k, e in self.estimates.items() if not is_own(k)}
         return {
             "parameters": dict(self.parameters),
             "stderr": {k: e.stderr for k, e in shared.items()},
@@ -122,7 +116,7 @@ class FitResult:
                     **({"model": self.model} if self.model else {})},
             "provenance": self.provenance,
             # per recording the values it ran with and its signals, long ones as their
-            # display envelope (report/envelope.py): enough to re-render and compare reports
+            # display envelope (fitting/envelope.py): enough to re-render and compare reports
             "recordings": [experiment_dict(e) for e in self.experiments],
             "predicted": [experiment_dict(e) for e in self.predicted],
         }
@@ -132,28 +126,10 @@ class FitResult:
         path.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False, default=_plain) + "\n")
         return path
 
-    def write_report(self, directory: str | Path) -> Path:
-        from pendfmu.report import write_report
-
-        return write_report(self, directory)
-
-    def export(self, directory: str | Path) -> list[Path]:
-        """Parameterized FMUs and an SSV file (pendfmu's components: also Modelica modifiers)."""
-        if self.model:
-            from pendfmu.export.model import export_model
-            from pendfmu.fitting.models import load_model
-
-            return export_model(load_model(self.model), self.parameters, directory, f"a pendfmu fit ({self.stage})")
-        from pendfmu.export import export_all
-
-        return export_all(self.parameters, directory)
-
 
 def experiment_dict(fit: ExperimentFit) -> dict:
     """One recording's fit for the result file: long signals reduced to their envelope,
     with the RMS error of every sample kept beside it; a missing sample (NaN) is null."""
-    from pendfmu.report.envelope import envelope_indices
-
     signals = list(fit.recorded)
     residuals = [np.asarray(fit.recorded[s], float) - np.asarray(fit.simulated[s], float) for s in signals]
     arrays = [np.asarray(fit.recorded[s], float) for s in signals] + [np.asarray(fit.simulated[s], float)
@@ -216,25 +192,24 @@ def _result_from(document: dict) -> FitResult:
     flags = document.get("flags", {})
     methods = document.get("interval_method", {})
     estimates = {}
-    for label, stderr in document.get("stderr", {}).items():
-        interval = document.get("ci95", {}).get(label)
+    for key, stderr in document.get("stderr", {}).items():
+        interval = document.get("ci95", {}).get(key)
         ci95 = None if interval is None else (-math.inf if interval[0] is None else float(interval[0]),
                                               math.inf if interval[1] is None else float(interval[1]))
-        value = document["parameters"].get(label)
-        estimates[label] = Estimate(label, math.nan if value is None else float(value), stderr, ci95,
-                                    math.nan, math.nan, list(flags.get(label, [])), methods.get(label, "jacobian"))
+        value = document["parameters"].get(key)
+        estimates[key] = Estimate(key, math.nan if value is None else float(value), stderr, ci95,
+                                  math.nan, math.nan, list(flags.get(key, [])), methods.get(key, "jacobian"))
     for recording, states in document.get("initial", {}).items():  # per-recording estimates: values only
         for name, value in states.items():
-            label = f"{name}[{recording}]"
-            estimates[label] = Estimate(label, float(value), None, None, math.nan, math.nan,
-                                        list(flags.get(label, [])), "none")
-    for label, label_flags in flags.items():  # a flagged estimate whose value the file does not hold
-        estimates.setdefault(label, Estimate(label, math.nan, None, None, math.nan, math.nan, list(label_flags),
-                                             "none"))
+            key = label(name, recording)
+            estimates[key] = Estimate(key, float(value), None, None, math.nan, math.nan, list(flags.get(key, [])),
+                                      "none")
+    for key, key_flags in flags.items():  # a flagged estimate whose value the file does not hold
+        estimates.setdefault(key, Estimate(key, math.nan, None, None, math.nan, math.nan, list(key_flags), "none"))
     for stage in document.get("provenance", {}).get("stages", {}).values():
-        for label, (low, high) in stage.get("bounds", {}).items():
-            if label in estimates:
-                estimates[label].low, estimates[label].high = low, high
+        for key, (low, high) in stage.get("bounds", {}).items():
+            if key in estimates:
+                estimates[key].low, estimates[key].high = low, high
     return FitResult(
         fit["stage"], dict(document["parameters"]), estimates, document.get("correlation", {}),
         fit.get("cost", math.nan), fit.get("nrmse", {}), fit.get("nfev", 0), fit.get("failures", 0),
@@ -256,175 +231,3 @@ def _plain(value):
     if isinstance(value, np.generic):
         return value.item()
     raise TypeError(f"cannot write {type(value).__name__} to JSON")
-
-
-def estimate_uncertainty(free: list[FreeParameter], u: np.ndarray, jacobian: np.ndarray,
-                         residual: np.ndarray) -> tuple[dict[str, Estimate], dict[str, dict[str, float]]]:
-    """The fast interval ("jacobian"): cov = s^2 (J^T J)^+ at the optimum, as if the
-    residuals were independent. Quantization and model errors come in long correlated
-    runs, so on real recordings this is far too narrow; it is kept as a labelled fast
-    option and as the bootstrap's linearization."""
-    m, n = jacobian.shape
-    variance = float(residual @ residual) / max(m - n, 1)
-    norms = np.linalg.norm(jacobian, axis=0) if n else np.zeros(0)
-    sensitive = norms > 1e-9 * (norms.max() if n and norms.max() > 0 else 1.0)
-    G = physical_jacobian(free, u)
-    covariance = np.zeros((n, n))
-    if sensitive.any():
-        J = jacobian[:, sensitive]
-        with np.errstate(all="ignore"):
-            covariance_u = variance * np.linalg.pinv(J.T @ J)
-            covariance = G[:, sensitive] @ covariance_u @ G[:, sensitive].T
-    # A parameter that moves with an insensitive coordinate is not determined at all.
-    undetermined = (np.abs(G[:, ~sensitive]) > 0).any(axis=1) if n else np.zeros(0, bool)
-    covariance[undetermined, :] = np.nan
-    covariance[:, undetermined] = np.nan
-    sigma = np.sqrt(np.clip(np.diag(covariance), 0, None))
-    values = physical(free, u)
-    estimates: dict[str, Estimate] = {}
-    for k, p in enumerate(free):
-        estimate = Estimate(p.label, float(values[k]), None, None, p.low, p.high, method="jacobian")
-        if not undetermined[k] and np.isfinite(sigma[k]):
-            estimate.stderr = float(sigma[k])
-            estimate.ci95 = interval(estimate.value, estimate.stderr, positive(p), p.name)
-        elif not at_bound(u[k]):
-            estimate.flags.append("the recordings do not depend on it (zero sensitivity): not identifiable here")
-        estimates[p.label] = estimate
-    correlation = correlation_table(free, covariance)
-    add_flags(estimates, correlation, free, u)
-    return estimates, correlation
-
-
-def positive(p: FreeParameter) -> bool:
-    """Whether a parameter's interval is taken on the log scale (it is positive by nature)."""
-    return p.log or p.relative_to is not None
-
-
-LOG_LIMIT = 700.0  # exp() of more overflows a double
-
-
-def interval(value: float, sigma: float, log_scale: bool, name: str = "", quantile: float = Z95) -> tuple[float, float]:
-    """value -+ quantile * sigma, on the log scale for a positive quantity (sigma / value
-    is then its relative spread), so that it stays positive; clipped to the parameter's
-    physical range (eta <= 1). A spread too large for floating point is an unbounded side,
-    never an overflow: the result must be written whatever the statistics do."""
-    if not math.isfinite(sigma) or not math.isfinite(value):
-        low, high = -math.inf, math.inf
-    elif log_scale and value > 0:
-        spread = quantile * sigma / value
-        if spread > LOG_LIMIT:
-            low, high = 0.0, math.inf
-        else:
-            factor = math.exp(spread)
-            low, high = value / factor, value * factor
-    else:
-        low, high = value - quantile * sigma, value + quantile * sigma
-    return clip_to_range(name, (low, high))
-
-
-def clip_to_range(name: str, bounds: tuple[float, float]) -> tuple[float, float]:
-    """An interval cut to the physical range of the parameter `name` (MODEL.md's table)."""
-    from pendfmu.components import parameter_table
-
-    variable = parameter_table().get(name)
-    low, high = bounds
-    if variable is not None:
-        if variable.low is not None:
-            low = max(low, variable.low)
-        if variable.high is not None:
-            high = min(high, variable.high)
-    return float(low), float(high)
-
-
-def at_bound(u: float) -> bool:
-    return u <= 1e-6 or u >= 1 - 1e-6
-
-
-def correlation_table(free: list[FreeParameter], covariance: np.ndarray) -> dict[str, dict[str, float | None]]:
-    sigma = np.sqrt(np.clip(np.diag(covariance), 0, None)) if len(free) else np.zeros(0)
-    table: dict[str, dict[str, float | None]] = {}
-    for i, p in enumerate(free):
-        table[p.label] = {}
-        for j, q in enumerate(free):
-            denominator = sigma[i] * sigma[j]
-            value = covariance[i, j] / denominator if denominator > 0 else float("nan")
-            table[p.label][q.label] = float(value) if math.isfinite(value) else None
-    return table
-
-
-def add_flags(estimates: dict[str, Estimate], correlation: dict[str, dict[str, float | None]],
-              free: list[FreeParameter], u: np.ndarray) -> None:
-    """The flags every method shares: at a search bound, an interval wider than the value
-    or unbounded, a correlation above the limit. Each flag gives its true reason."""
-    for k, p in enumerate(free):
-        estimate = estimates[p.label]
-        if at_bound(u[k]):
-            estimate.flags.append(_bound_flag(p, u[k] <= 1e-6))
-        if estimate.ci95 is not None:
-            low, high = estimate.ci95
-            if not (math.isfinite(low) and math.isfinite(high)):
-                estimate.flags.append(f"unbounded: the 95 % interval is [{low:.4g}, {high:.4g}]; the recordings do "
-                                      f"not bound it on that side")
-            elif high - low > abs(estimate.value):
-                estimate.flags.append(f"95 % interval [{low:.4g}, {high:.4g}] is wider than the value: the "
-                                      f"recordings hardly determine it")
-        for q in free:
-            value = correlation.get(p.label, {}).get(q.label)
-            if q is not p and value is not None and abs(value) > CORRELATION_LIMIT:
-                estimate.flags.append(f"correlated {value:+.3f} with {q.label}: only a combination of the two is "
-                                      f"determined")
-
-
-WARNING_FLAGS = ("at its lower bound", "at its upper bound", "unbounded", "no interval", "not determined")
-
-
-def flag_warnings(estimates: dict[str, Estimate]) -> list[str]:
-    """The flags that must reach the console as warnings: an estimate at a search bound
-    (the optimum may lie beyond), an unbounded interval, no interval at all."""
-    warnings = []
-    for label, estimate in estimates.items():
-        for flag in estimate.flags:
-            if flag.startswith(WARNING_FLAGS) or "the upper bound of the search" in flag:
-                warnings.append(f"{label}: {flag}")
-    return warnings
-
-
-def unknown_uncertainty(free: list[FreeParameter], u: np.ndarray, reason: str) -> dict[str, Estimate]:
-    """Estimates without intervals, when the statistics themselves failed: the values are
-    still the fit's, and the result is still written."""
-    values = physical(free, u)
-    return {p.label: Estimate(p.label, float(v), None, None, p.low, p.high,
-                              [f"no interval: the uncertainty could not be computed ({reason})"], method="none")
-            for p, v in zip(free, values)}
-
-
-def _bound_flag(p: FreeParameter, lower: bool) -> str:
-    if p.relative_to:
-        ratio = p.low if lower else p.high
-        if lower:
-            return f"at its lower bound: equal to {p.relative_to} (no stiction beyond Coulomb friction)"
-        return (f"at {ratio:g} times {p.relative_to}, the upper bound of the search: widen it with "
-                f"--bounds {p.name}=LOW:HIGH (absolute values)")
-    bound = p.low if lower else p.high
-    # the name as --bounds takes it: a recording's own parameter (phi0[run1]) by its plain
-    # name, which sets the box of every recording's
-    return (f"at its {'lower' if lower else 'upper'} bound {bound:g}: the optimum may lie beyond; "
-            f"widen the bounds (--bounds {p.name}=LOW:HIGH) or check the model")
-
-
-def nrmse(experiments: list[ExperimentFit]) -> dict[str, float]:
-    """Root-mean-square error per signal over all recordings, divided by the recorded range."""
-    pooled: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
-    for fit in experiments:
-        for name, recorded in fit.recorded.items():
-            pooled.setdefault(name, []).append((recorded, fit.simulated[name]))
-    result = {}
-    for name, pairs in pooled.items():
-        recorded = np.concatenate([r for r, _ in pairs])
-        simulated = np.concatenate([s for _, s in pairs])
-        present = np.isfinite(recorded)  # a missing reading (sidecar "missing") has no error
-        recorded, simulated = recorded[present], simulated[present]
-        spread = float(np.ptp(recorded)) if len(recorded) else 0.0
-        spread = spread or 1.0
-        result[name] = float(np.sqrt(np.mean((simulated - recorded) ** 2)) / spread)
-    return result

@@ -8,13 +8,15 @@ harmonic a_h sin(2 pi f_h t + phase_h) on the measured current).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
-from pendfmu.fitting.checkpoint import Checkpoint
-from pendfmu.fitting.identification import fit
-from pendfmu.fitting.optimizer import GlobalOptions
+from pendfmu.fitting.problem import given_values
+from pendfmu.fitting.labels import is_own
 from pendfmu.fitting.result import FitResult
+from pendfmu.fitting.spec import FitSpec
 
 
 HARMONIC = ("a_h", "f_h", "phase_h")
@@ -51,39 +53,37 @@ def detect_harmonic(result: FitResult) -> dict[str, float] | None:
     return best[1] if best else None
 
 
-def fit_current(recordings, params=None, seed: int = 0, cost: str = "plain", harmonic: bool | None = None,
-                global_search: GlobalOptions | None = None, progress: bool | None = None,
-                checkpoint: Checkpoint | None = None, **options) -> FitResult:
-    """The current stage, with the PWM ripple: unless harmonic=False, a harmonic found in
-    the residual of the lag fit is added to the free parameters and fitted with them."""
-    uncertainty = options.pop("uncertainty", "bootstrap")
-    settled = harmonic is False or any(name in (options.get("free") or ()) for name in HARMONIC)
-    first = fit("current", recordings, params, seed=seed, cost=cost, global_search=global_search,
-                progress=progress, checkpoint=checkpoint, uncertainty=uncertainty if settled else "jacobian",
-                **options)
-    if settled:
-        return first
+def looks_for_ripple(spec: FitSpec) -> bool:
+    """Whether a fit looks for the PWM ripple: the current stage, unless told not to
+    (harmonic 'off') or told what to do with the harmonic's parameters (free or fixed)."""
+    named = any(name in (*spec.free, *spec.fix) for name in HARMONIC)
+    return spec.target == "current" and spec.harmonic == "auto" and not named
+
+
+def fit_with_ripple(spec: FitSpec, solve: Callable[[FitSpec, bool], FitResult]) -> FitResult:
+    """The current stage with its PWM ripple: the lag alone first (its intervals the fast
+    ones), then, if a harmonic stands out of that fit's residual, the harmonic added to the
+    free parameters and fitted from there; if none does, the lag's intervals by the
+    method asked for. `solve(spec, quiet)` solves one pass (quiet: its recordings' warnings
+    were given by the first pass)."""
+    first = solve(spec.with_options(uncertainty="jacobian", replicates=None), False)
     found = detect_harmonic(first)
-    options.pop("warn", None)  # the recordings' warnings were given by the first pass
+    local = replace(spec.global_search, enabled=False)
+    known = given_values(spec)
     if found is None:
-        # The lag alone it is: its intervals, by the method asked for, from the optimum found.
-        final = fit("current", recordings, {**(params or {}), **_fitted(first)}, seed=seed, cost=cost,
-                    global_search=GlobalOptions(enabled=False), progress=progress, uncertainty=uncertainty, **options)
+        final = solve(spec.with_options(params={**known, **_fitted(first)}, global_search=local), True)
         final.notes.append("no PWM ripple found in the residual (harmonic not fitted)")
-        final.nfev += first.nfev
-        final.seconds += first.seconds
-        return final
-    bounds = {"a_h": (0.0, max(4 * found["a_h"], 1e-3)), "f_h": (0.9 * found["f_h"], 1.1 * found["f_h"]),
-              "phase_h": (found["phase_h"] - math.pi, found["phase_h"] + math.pi), **options.pop("bounds", {})}
-    second = fit("current", recordings, {**first.parameters, **found}, free=list(HARMONIC), bounds=bounds,
-                 seed=seed, cost=cost, global_search=GlobalOptions(enabled=False), progress=progress,
-                 uncertainty=uncertainty, **options)
-    second.notes.append(f"PWM ripple found in the residual near {found['f_h']:.6g} Hz and fitted")
-    second.nfev += first.nfev
-    second.seconds += first.seconds
-    return second
+    else:
+        bounds = {"a_h": (0.0, max(4 * found["a_h"], 1e-3)), "f_h": (0.9 * found["f_h"], 1.1 * found["f_h"]),
+                  "phase_h": (found["phase_h"] - math.pi, found["phase_h"] + math.pi), **spec.bounds}
+        final = solve(spec.with_options(params={**first.parameters, **found}, free=(*spec.free, *HARMONIC),
+                                        bounds=bounds, global_search=local), True)
+        final.notes.append(f"PWM ripple found in the residual near {found['f_h']:.6g} Hz and fitted")
+    final.nfev += first.nfev
+    final.seconds += first.seconds
+    return final
 
 
 def _fitted(result: FitResult) -> dict[str, float]:
     """The stage's fitted rig parameters (not per-recording initial states)."""
-    return {label: e.value for label, e in result.estimates.items() if "[" not in label}
+    return {key: e.value for key, e in result.estimates.items() if not is_own(key)}

@@ -1,29 +1,26 @@
 """The paper's sequence on a folder of recordings: current, then cart, then pendulum.
 
-`fit_all` sorts a folder's recordings by their signals, fits the stages in order, each
+`fit_sequence` (``pendfmu.fit("all", folder)``) sorts a folder's recordings by their signals, fits the stages in order, each
 starting from the previous stage's result and carrying its bootstrap replicates, and
 predicts the recordings with both x and phi (coupled, bang-bang) with the result.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from pendfmu.components import rig_defaults
-from pendfmu.fitting.checkpoint import Checkpoint
-from pendfmu.fitting.identification import _recordings, fit
-from pendfmu.fitting.optimizer import GlobalOptions
-from pendfmu.fitting.plausibility import SuspiciousData, check_experiment
+from pendfmu.errors import OptionError
 from pendfmu.fitting.experiment import signal_scale
+from pendfmu.fitting.plausibility import SuspiciousData
+from pendfmu.fitting.problem import build_problem, given_values
 from pendfmu.fitting.provenance import merged
 from pendfmu.fitting.result import ExperimentFit, FitResult
-from pendfmu.fitting.ripple import fit_current
-from pendfmu.fitting.stages import STAGES, make_experiment
-from pendfmu.fitting.uncertainty import REPLICATES
-from pendfmu.parameters import check_parameters
+from pendfmu.fitting.solve import Session, solve
+from pendfmu.fitting.spec import STAGE_NAMES, FitSpec, for_stage, unplaced
+from pendfmu.fitting.stages import STAGES, stage_has
 from pendfmu.recording import Recording, RecordingError, read_recording
 
 
@@ -71,55 +68,50 @@ def skipped_in_folder(folder: str | Path, groups: Mapping[str | None, list[Recor
     return lines
 
 
-def check_recordings(stage: str, recordings: Sequence[str | Path | Recording],
-                     params: Mapping[str, float] | None = None, drive: str | None = None) -> list[str]:
-    """The plausibility warnings of a stage's recordings (plausibility.py), without fitting."""
-    values = {**rig_defaults(), **check_parameters(params or {})}
-    return [w for r in _recordings(recordings) for w in check_experiment(make_experiment(r, stage, values, drive))]
-
-
-def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed: int = 0, cost: str = "plain",
-            global_search: GlobalOptions | None = None, progress: bool | None = None,
-            checkpoint: Checkpoint | None = None, warn: Callable[[str], None] | None = None,
-            strict: bool = False, uncertainty: str = "bootstrap", replicates: int = REPLICATES) -> FitResult:
+def fit_sequence(spec: FitSpec, session: Session) -> FitResult:
     """The paper's sequence on a folder of recordings: current, then cart, then pendulum,
-    each stage starting from the previous stage's result. Recordings with both x and phi
-    are not fitted; they check the identified model (see validate). Every recording is
-    checked for plausibility before the first stage starts (see fit)."""
+    each stage starting from the previous stage's result and carrying its bootstrap
+    replicates. Recordings with both x and phi are not fitted; they check the identified
+    model (predicted_fits). Every stage's problem is built before the first one is fitted:
+    its recordings are judged (warnings, --strict) and every option reaches the stages that
+    have its parameters or is refused (spec.for_stage), before any work."""
+    folder = spec.recordings[0]
     groups = sort_folder(folder)
-    data_warnings = [w for stage in STAGES if groups.get(stage)
-                     for w in check_recordings(stage, groups[stage], params)]
-    for warning in data_warnings:
-        if warn:
-            warn(warning)
-    if strict and data_warnings:
+    stages = [stage for stage in STAGE_NAMES if groups.get(stage)]
+    specs = _stage_specs(spec, stages, groups)
+    problems = {stage: build_problem(specs[stage]) for stage in stages}
+    data_warnings = [w for stage in stages for w in problems[stage].data_warnings]
+    session.say(data_warnings)
+    if session.strict and data_warnings:
         raise SuspiciousData(data_warnings)
     skipped = skipped_in_folder(folder, groups)
     for line in skipped:
         print(f"fit all: {line}", flush=True)
-    values = dict(params or {})
+    values = given_values(spec)
     results = []
     upstream: list[dict[str, float]] = []  # per bootstrap replicate, every earlier stage's values
-    for stage in ("current", "cart", "pendulum"):
-        if groups.get(stage):
-            run = fit_current if stage == "current" else (lambda *a, **k: fit(stage, *a, **k))
-            result = run(groups[stage], values, seed=seed, cost=cost, global_search=global_search,
-                         progress=progress, checkpoint=checkpoint, uncertainty=uncertainty, replicates=replicates,
-                         upstream=upstream or None)
-            values = dict(result.parameters)
-            upstream = [{**(upstream[b] if upstream else {}), **replicate}
-                        for b, replicate in enumerate(result.replicates)] or upstream
-            results.append(result)
+    for stage in stages:
+        result = solve(specs[stage].with_options(params=values), session.quiet(), upstream or None)
+        values = dict(result.parameters)
+        upstream = [{**(upstream[b] if upstream else {}), **replicate}
+                    for b, replicate in enumerate(result.replicates)] or upstream
+        results.append(result)
     combined = _combine(results, values, groups.get(None, []))
     combined.notes.extend(skipped)
+    combined.provenance["request"] = spec.request()
     return combined
 
 
-def predict(parameters: Mapping[str, float], recordings: Sequence[Recording]) -> dict[str, dict[str, float]]:
-    """Simulate the whole rig for recordings that were not fitted (the coupled and
-    bang-bang experiments) and measure the prediction error of x and phi, in the signal's
-    unit and in sensor steps where the sidecar gives the resolution."""
-    return prediction_errors(predicted_fits(parameters, recordings))
+def _stage_specs(spec: FitSpec, stages: Sequence[str], groups: Mapping[str | None, list[Recording]]
+                 ) -> dict[str, FitSpec]:
+    """Each stage's spec: its recordings, and the options that reach it (spec.for_stage)."""
+    if spec.harmonic != "auto" and "current" not in stages:
+        raise OptionError("harmonic", "is the current stage's PWM ripple; this folder has no current recording")
+    accepted = {stage: {option: [name for name in getattr(spec, option) if stage_has(stage, name, groups[stage])]
+                        for option in ("free", "fix", "bounds", "per_recording")} for stage in stages}
+    unplaced(spec, accepted)
+    return {stage: for_stage(spec, stage, accepted[stage]).with_options(recordings=tuple(groups[stage]))
+            for stage in stages}
 
 
 def predicted_fits(parameters: Mapping[str, float], recordings: Sequence[Recording]) -> list[ExperimentFit]:

@@ -26,9 +26,10 @@ from functools import lru_cache
 import numpy as np
 
 from pendfmu.components import COMPONENTS
+from pendfmu.errors import OptionError
 from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare, through_sensor
 from pendfmu.fitting.residuals import FreeParameter
-from pendfmu.parameters import INITIAL_STATE_PARAMETERS, ParameterFileError, check_parameters, with_initial_states
+from pendfmu.parameters import INITIAL_STATE_PARAMETERS, check_parameters, with_initial_states
 from pendfmu.recording import Recording, RecordingError
 from pendfmu.recording.measurement import default_box, is_measurement, measurement_signal
 from pendfmu.simulator.graph import Connection
@@ -297,6 +298,15 @@ def _stribeck(stiction: str, names: Sequence[str], fix: Sequence[str], values: M
     return (speed in names and speed not in fix) or values.get(speed, 0.0) > 0.0
 
 
+def stage_has(stage: str, name: str, recordings: Sequence[Recording]) -> bool:
+    """Whether a parameter belongs to a stage, so that the sequence ("all") passes an option
+    naming it there: a parameter of the stage's component, or a sensor's offset, scale or
+    delay of a signal the stage's recordings hold."""
+    component = COMPONENTS[STAGES[stage].component]
+    signals = {signal for recording in recordings for signal in recording.signals}
+    return name in component.parameters or is_measurement(name, signals)
+
+
 def stage_free_parameters(stage: str, experiments: list[Experiment], free: Sequence[str] | None,
                           fix: Sequence[str], bounds: Mapping[str, tuple[float, float]],
                           values: Mapping[str, float], given: Collection[str] | None = None
@@ -318,19 +328,26 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
     names = list(preset) + [n for n in (free or []) if n not in preset]
     own = {e.name: e.estimated for e in experiments}
     per_recording = {name for estimated in own.values() for name in estimated}
-    for name in list(names) + list(fix) + sorted(per_recording):
-        known = name in component.parameters or name in {"phi0"} or is_measurement(name, signals)
-        if not known:
-            raise ParameterFileError(f"stage {stage} fits parameters of {spec.component} and the sensors' offset, "
-                                     f"scale and delay (e.g. {spec.fitted[0]}_offset, input_delay); {name!r} is not "
-                                     f"one{did_you_mean(name, component.parameters)} (valid: "
-                                     f"{', '.join(n for n in component.parameters if n != 'solver_step')})")
+    for option, listed in (("free", names), ("fix", fix), ("per_recording", sorted(per_recording))):
+        for name in listed:
+            if not (name in component.parameters or is_measurement(name, signals)):
+                raise OptionError(option, f"the {stage} stage fits parameters of {spec.component} and the sensors' "
+                                          f"offset, scale and delay (e.g. {spec.fitted[0]}_offset, input_delay); "
+                                          f"{name!r} is not one{did_you_mean(name, component.parameters)} (valid: "
+                                          f"{', '.join(n for n in component.parameters if n != 'solver_step')})")
+    fitted = [*names, *sorted(per_recording - set(names))]
+    for name in fix:
+        if name not in fitted:
+            hint = "; the PWM ripple is fitted where it is found (harmonic 'off' leaves it out)" \
+                if stage == "current" and name in ("a_h", "f_h", "phase_h") else ""
+            raise OptionError("fix", f"the {stage} stage does not fit {name!r}{did_you_mean(name, fitted)}, so "
+                                     f"there is nothing to keep fixed (it fits {', '.join(fitted)}){hint}")
     names = [n for n in names if n not in per_recording]
     valid = [n for n in names if n not in fix] + sorted(per_recording - set(fix))
     for name in bounds:
         if name not in valid:
-            raise ParameterFileError(f"bounds for {name!r}, which this fit does not estimate"
-                                     f"{did_you_mean(name, valid)}; its free parameters: {', '.join(valid) or 'none'}")
+            raise OptionError("bounds", f"{name!r} is not estimated by the {stage} stage{did_you_mean(name, valid)}; "
+                                        f"its free parameters: {', '.join(valid) or 'none'}")
     result = []
     for name in names:
         if name in fix:
@@ -384,5 +401,5 @@ def _box(name: str, names: Sequence[str], fix: Sequence[str], bounds: Mapping[st
         if derived is not None and not high > low:  # a given Coulomb friction above the derived box
             high = low * SEARCH_DECADE
     if low is None or not high > low:
-        raise ParameterFileError(f"parameter {name}: give bounds as --bounds {name}=LOW:HIGH (LOW < HIGH)")
+        raise OptionError("bounds", f"{name}: no search box of its own; give one: {name}=LOW:HIGH (LOW < HIGH)")
     return low, high, log, relative_to

@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pendfmu.fitting.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
-from pendfmu.fitting.result import Estimate, estimate_uncertainty, unknown_uncertainty
+from pendfmu.fitting.result import Estimate
+from pendfmu.fitting.statistics import estimate_uncertainty, unknown_uncertainty
 from pendfmu.fitting.residuals import Residuals, physical
 from pendfmu.fitting.stiction import JOINTS
 

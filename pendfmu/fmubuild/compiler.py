@@ -38,6 +38,7 @@ import platformdirs
 
 from pendfmu import __version__
 from pendfmu.components import Component
+from pendfmu.errors import BuildError
 from pendfmu.fmubuild import ctables, description, description3
 
 
@@ -67,10 +68,6 @@ def fmu_folder() -> Path:
     if pyproject.is_file() and 'name = "pendfmu"' in pyproject.read_text(errors="replace"):
         return checkout / "fmus"
     return Path(platformdirs.user_cache_dir("pendfmu")) / __version__ / "fmus"
-
-
-class BuildError(RuntimeError):
-    """The C compiler rejected a component's sources, or they cannot be found."""
 
 
 SOURCE_DIR = _source_dir()
@@ -225,7 +222,11 @@ def compile_library(sources: Sequence[str | Path], output: Path, include: Sequen
     cc = compiler or (os.environ.get("CC", target.compiler) if platform == PLATFORM else target.compiler)
     folders = [*(f for folder in include for f in ("-I", str(folder))), "-I", str(FMI_HEADERS)]
     command = [cc, *target.flags, "-shared", *folders, *(str(s) for s in sources), "-o", str(output), "-lm"]
-    result = subprocess.run(command, capture_output=True, text=True)
+    try:
+        result = subprocess.run(command, capture_output=True, text=True)
+    except FileNotFoundError:
+        raise BuildError(f"no C compiler {cc!r} on this machine: install one (Debian: apt-get install gcc) or name "
+                         f"it in the environment variable CC") from None
     if result.returncode != 0:
         raise BuildError(f"{cc} failed for {', '.join(str(s) for s in sources)}:\n{result.stderr}")
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 from pendfmu.fitting.result import FitResult
+from pendfmu.fitting.labels import parameter_of
 from pendfmu.report.content import finite, scaled_rms, unit
 from pendfmu.report.html import (DASH, _cell, _section, _table, _text, document, interval, number, provenance)
 from pendfmu.report.interactive import plot_note, recording_plot
@@ -89,7 +90,7 @@ def _values(first: FitResult, second: FitResult, names: tuple[str, str]) -> str:
 
 
 def _known(first: FitResult, second: FitResult, names: tuple[str, str]) -> str:
-    fitted = {label.split("[", 1)[0] for label in [*first.estimates, *second.estimates]}
+    fitted = {parameter_of(key) for key in [*first.estimates, *second.estimates]}
     rows = []
     for name in sorted(set(first.parameters) | set(second.parameters)):
         a, b = first.parameters.get(name), second.parameters.get(name)

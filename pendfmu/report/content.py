@@ -15,6 +15,7 @@ import numpy as np
 
 from pendfmu.components import COMPONENTS
 from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult
+from pendfmu.fitting.labels import label, parameter_of
 
 
 def unit(name: str) -> str:
@@ -22,7 +23,7 @@ def unit(name: str) -> str:
 
     Per-recording estimates are labelled ``phi0[recording]``; they take the unit of the
     parameter before the bracket. An unknown name has no unit (empty string)."""
-    base = name.split("[", 1)[0]
+    base = parameter_of(name)
     for component in COMPONENTS.values():
         for variable in component.variables:
             if variable.name == base:
@@ -36,7 +37,7 @@ def component_of(name: str) -> str:
 
 
 def description(name: str) -> str:
-    base = name.split("[", 1)[0]
+    base = parameter_of(name)
     for component in COMPONENTS.values():
         if base in component.parameters:
             return component.parameters[base].description
@@ -160,7 +161,7 @@ def recording_values(result: FitResult) -> tuple[list[ExperimentFit], dict[str, 
     for fit in fits:
         values = {**fit.values, **result.initial.get(fit.name, {})}
         for name, value in values.items():
-            own = f"{name}[{fit.name}]" in result.estimates
+            own = label(name, fit.name) in result.estimates
             entries.setdefault(name, {})[fit.name] = RecordingValue(float(value), name in fit.overrides, own)
     shown = {name: row for name, row in entries.items()
              if any(v.overridden or v.fitted or v.differs(result.parameters.get(name)) for v in row.values())}

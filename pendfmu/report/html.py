@@ -21,6 +21,7 @@ from pendfmu.report.content import (COST_DEFINITION, SignalError, bounded_only, 
 from pendfmu.report.figures import Picture
 from pendfmu.report.interactive import library_script, plot_note, recording_plot
 from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult
+from pendfmu.fitting.labels import parameter_of
 
 DASH = "—"  # what a missing or undefined number shows
 NO_FRICTION = "<p>No friction curve: no friction parameters were fitted (or their values are not finite).</p>"
@@ -289,7 +290,7 @@ def _per_recording(result: FitResult) -> str:
 
 
 def _known(result: FitResult) -> str:
-    fitted = {label.split("[", 1)[0] for label in result.estimates}
+    fitted = {parameter_of(key) for key in result.estimates}
     known = {name: value for name, value in result.parameters.items() if name not in fitted}
     if not known:
         return "<p>Every parameter was fitted.</p>"

@@ -20,7 +20,7 @@ import numpy as np
 
 from pendfmu.fitting.result import ExperimentFit
 from pendfmu.report.content import signal_errors, unit
-from pendfmu.report.envelope import BUCKETS, envelope_indices
+from pendfmu.fitting.envelope import BUCKETS, envelope_indices
 
 RECORDED = "#7f7f7f"
 SIMULATED = "#d62728"

@@ -119,6 +119,18 @@ class Model:
     # -- construction
 
     @classmethod
+    def load(cls, model: str | Path | Model) -> Model:
+        """A Model from an FMU or SSP file (or the Model itself)."""
+        if isinstance(model, Model):
+            return model
+        path = Path(model)
+        if path.suffix.lower() == ".fmu":
+            return cls.from_fmu(path)
+        if path.suffix.lower() == ".ssp":
+            return cls.from_ssp(path)
+        raise ModelError(f"{model}: a model is an FMU (.fmu) or an SSP system (.ssp)")
+
+    @classmethod
     def from_fmu(cls, path: str | Path, name: str | None = None) -> Model:
         """A model of one FMU file (one instance, named by its model identifier)."""
         path = Path(path)

@@ -1,0 +1,267 @@
+"""Solve one fit: a stage's or a model's problem, from the search to the written result.
+
+`solve(spec, session)` builds the problem of the spec (problem.py), searches (optimizer.py),
+assesses the intervals (uncertainty.py), reads what stick-slip recordings say about
+stiction (stiction.py) and gathers the FitResult with its provenance. The current stage
+with its PWM ripple takes two passes (ripple.py); the paper's sequence runs this per stage
+(sequence.py). What watches a fit -- its progress bar, the Ctrl-C checkpoint, where
+warnings go, --strict -- is its Session, not part of what it fits.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pendfmu.errors import FMUError, OptionError
+from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
+from pendfmu.fitting.experiment import Experiment
+from pendfmu.fitting.optimizer import optimize
+from pendfmu.fitting.plausibility import SuspiciousData
+from pendfmu.fitting.problem import Problem, build_problem
+from pendfmu.fitting.progress import Progress
+from pendfmu.fitting.provenance import fit_record
+from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
+from pendfmu.fitting.result import ExperimentFit, FitResult
+from pendfmu.fitting.statistics import flag_warnings, nrmse
+from pendfmu.fitting.ripple import fit_with_ripple, looks_for_ripple
+from pendfmu.fitting.spec import FitSpec
+from pendfmu.fitting.stiction import JOINTS, bound_stiction
+from pendfmu.fitting.uncertainty import assess_uncertainty
+from pendfmu.recording.measurement import measurement_signal, no_effect
+
+# RMS of the scaled residuals (1 at the truth) above which the fit says the model is missing something
+MODEL_ERROR_LIMIT = 3.0
+
+
+@dataclass
+class Session:
+    """What watches a fit, not what it fits.
+
+    Attributes
+    ----------
+    progress : bool or None
+        A progress bar (None: on a terminal only).
+    checkpoint : Checkpoint or None
+        Where an interrupted fit keeps the costs it had computed (--resume).
+    warn : callable or None
+        Called with each warning about the recordings and the set-up, before the fit starts.
+    strict : bool
+        Raise SuspiciousData instead of fitting when the recordings look wrong.
+    """
+
+    progress: bool | None = None
+    checkpoint: Checkpoint | None = None
+    warn: Callable[[str], None] | None = None
+    strict: bool = False
+
+    def say(self, warnings: Sequence[str]) -> None:
+        for warning in warnings:
+            if self.warn:
+                self.warn(warning)
+
+    def quiet(self) -> Session:
+        """The same session without its warnings (a later pass over recordings already judged)."""
+        return Session(self.progress, self.checkpoint, None, False)
+
+
+def solve(spec: FitSpec, session: Session, upstream: Sequence[Mapping[str, float]] | None = None) -> FitResult:
+    """Fit one stage or model as `spec` says. `upstream`: per bootstrap replicate, an
+    earlier stage's values (the sequence passes them), so that the intervals carry them."""
+    if looks_for_ripple(spec):
+        return fit_with_ripple(spec, lambda one, quiet: solve_problem(
+            build_problem(one), one, session.quiet() if quiet else session, upstream))
+    return solve_problem(build_problem(spec), spec, session, upstream)
+
+
+def solve_problem(problem: Problem, spec: FitSpec, session: Session,
+                  upstream: Sequence[Mapping[str, float]] | None = None) -> FitResult:
+    """Search, assess and gather the result of one built problem."""
+    if not problem.free:
+        raise OptionError("fix", f"{', '.join(spec.fix)} leaves nothing to fit on {spec.target_name} (and no "
+                                 f"recording estimates its own values)")
+    session.say(problem.data_warnings)
+    if session.strict and problem.data_warnings:
+        raise SuspiciousData(problem.data_warnings)
+    session.say(problem.setup_warnings)
+    free, values, experiments = problem.free, problem.values, problem.experiments
+    residuals = Residuals(experiments, free, values, spec.cost)
+    setup = experiments[0].setup
+    coarse = Residuals(experiments, free, {**values, **setup.coarse_values}, spec.cost,
+                       decimate=setup.coarse_decimate)
+    options = spec.global_search
+    bar = Progress(problem.name, options.maxiter if options.enabled else 0, session.progress)
+    names = ",".join(e.name for e in experiments)
+    cache = session.checkpoint.cache(f"{problem.name}:{names}") if session.checkpoint else {}
+    try:
+        u0 = start_vector(free, values, experiments)
+        try:
+            outcome = optimize(residuals, coarse, u0, spec.seed_value, options, bar, cache)
+        except KeyboardInterrupt:
+            raise _interrupted(problem, u0, cache) from None
+        bar("uncertainty")
+        assessed = assess_uncertainty(spec.uncertainty, residuals, outcome, spec.replicate_count, upstream, options)
+        found = _Found(problem, residuals, outcome, assessed)
+        found.failures_note(coarse)
+        found.stiction()
+        found.statistics()
+    finally:
+        bar.close()
+        residuals.close()
+        coarse.close()
+    return found.result(spec, physical(free, u0))
+
+
+def _interrupted(problem: Problem, u0: np.ndarray, cache: dict) -> Interrupted:
+    """Ctrl-C during the search: the best values found so far, for the command to write."""
+    best = best_candidate(cache)
+    found = physical(problem.free, u0 if best is None else best)
+    shared = {p.name: float(v) for p, v in zip(problem.free, found) if p.experiment is None}
+    return Interrupted({**problem.values, **shared}, problem.name)
+
+
+def start_vector(free: list[FreeParameter], values: Mapping[str, float], experiments: list[Experiment]) -> np.ndarray:
+    """The start of the search: given values, a recording's own guesses for its own
+    parameters; where none is known, the middle of the box (the low end where that is
+    0: a delay or an extra that is off)."""
+    by_name = {e.name: e for e in experiments}
+
+    def default(p: FreeParameter) -> float:
+        if p.name not in values and measurement_signal(p.name):
+            return no_effect(p.name)
+        middle = math.sqrt(p.low * p.high) if p.log else 0.5 * (p.low + p.high)
+        return values.get(p.name, p.low if p.low == 0 else middle)
+
+    start = []
+    for p in free:
+        if p.experiment is None:
+            start.append(default(p))
+            continue
+        experiment = by_name[p.experiment]
+        guess = experiment.estimated[p.name][0]
+        start.append(guess if guess is not None else experiment.fixed.get(p.name, default(p)))
+    return unit_of(free, start)
+
+
+class _Found:
+    """What a search found, on its way to a FitResult: the estimates and their intervals,
+    the notes and warnings each step adds, and the fit statistics per recording."""
+
+    def __init__(self, problem: Problem, residuals: Residuals, outcome, assessed):
+        self.problem, self.residuals, self.outcome, self.assessed = problem, residuals, outcome, assessed
+        self.estimates = assessed.estimates
+        self.notes = list(outcome.messages) + assessed.notes
+        self.warnings = list(problem.warnings)
+        self.spread = float(np.sqrt(np.mean(outcome.residual**2))) if len(outcome.residual) else 0.0
+        self.found = physical(problem.free, outcome.u)
+        self.fitted = {p.name: float(v) for p, v in zip(problem.free, self.found) if p.experiment is None}
+        self.fits: list[ExperimentFit] = []
+        if self.spread > MODEL_ERROR_LIMIT:
+            self.warnings.append(f"the residuals are {self.spread:.3g} times the sensor noise: the model misses "
+                                 f"something the recordings show, the data are mis-scaled, or the sidecar "
+                                 f"understates the noise")
+
+    def failures_note(self, coarse: Residuals) -> None:
+        if self.outcome.failures:
+            reason = self.residuals.last_failure or coarse.last_failure or "not reported by the workers"
+            self.notes.append(f"{self.outcome.failures} simulations failed during the fit and were penalized "
+                              f"(last: {reason})")
+
+    def stiction(self) -> None:
+        """A stage's stiction that the recordings only bound becomes that set (stiction.py)."""
+        stage = self.problem.stage
+        if stage not in JOINTS:
+            return
+        try:
+            self.notes += bound_stiction(stage, self.residuals, self.outcome.u, self.estimates, self.fitted,
+                                         self.assessed.values)
+        except FMUError as error:  # the result is written regardless
+            self.notes.append(f"the stiction's set could not be checked: the simulation at the result fails ({error})")
+
+    def statistics(self) -> None:
+        free = self.problem.free
+        final = [self.fitted.get(p.name, v) if p.experiment is None else v for p, v in zip(free, self.found)]
+        try:
+            self.fits = experiment_fits(self.residuals, unit_of(free, final))
+        except FMUError as error:
+            self.notes.append(f"the simulation at the result fails ({error}): no fit statistics")
+        if self.spread > MODEL_ERROR_LIMIT:
+            self.warnings += drift_warnings(self.fits)
+
+    def result(self, spec: FitSpec, start: np.ndarray) -> FitResult:
+        problem, outcome = self.problem, self.outcome
+        initial: dict[str, dict[str, float]] = {}
+        for p, value in zip(problem.free, self.found):
+            if p.experiment is not None:
+                initial.setdefault(p.experiment, {})[p.name] = float(value)
+        warnings = self.warnings + flag_warnings(self.estimates)
+        warnings += [note for note in self.notes if note.startswith("the local refinement stopped")]
+        origin = fit_record(problem, spec, start)
+        return FitResult(problem.name, {**problem.values, **self.fitted}, self.estimates, self.assessed.correlation,
+                         0.5 * float(outcome.residual @ outcome.residual), nrmse(self.fits), outcome.nfev,
+                         outcome.failures, outcome.seconds, self.fits, initial, self.notes, warnings=warnings,
+                         uncertainty=self.assessed.summary, replicates=self.assessed.replicates,
+                         model=problem.model_file, provenance=origin)
+
+
+DRIFT_RATIO = 10.0
+DRIFT_START = 0.05
+"""A recording's error after its first DRIFT_START (a twentieth) DRIFT_RATIO times the error
+within it: the simulation runs away from the recording (drift_warnings)."""
+
+
+def drift_warnings(fits: Sequence[ExperimentFit]) -> list[str]:
+    """A hint where a fit is poor because the simulation drifts: an open-loop replay of a
+    closed-loop or unstable run (a balanced pendulum, a stage under position control) leaves
+    the recording further and further behind from a start where it agreed, and no parameter
+    value can fix that. Said when the RMS error of a recorded signal after its first
+    twentieth is DRIFT_RATIO times the error within it (the start is where the replay and
+    the recording agree best: both begin from the same state)."""
+    found = []
+    for fit in fits:
+        for column, recorded in fit.recorded.items():
+            error = fit.simulated[column] - recorded
+            error = error[np.isfinite(error)]
+            start = max(10, int(DRIFT_START * len(error)))
+            if len(error) < 2 * start:
+                continue
+            early, late = (float(np.sqrt(np.mean(part**2))) for part in (error[:start], error[start:]))
+            if late > DRIFT_RATIO * early:
+                growth = f"{late / early:.3g}-fold" if early > 0 else "from nothing"
+                found.append(f"{fit.name}: the simulated {column} drifts away from the recording (its error grows "
+                             f"{growth} after the first twentieth of the run): an open-loop replay of a closed-loop "
+                             f"or unstable run cannot follow it; fit it in segments with their own initial states "
+                             f"(segment, or windows), or with its controller in the loop (an SSP system)")
+    return found
+
+
+def experiment_fits(residuals: Residuals, u: np.ndarray) -> list[ExperimentFit]:
+    """Recorded against simulated signals of each experiment at `u`, with the values it ran with."""
+    fits = []
+    for experiment, simulated in zip(residuals.experiments, residuals.simulate(u)):
+        recorded = {column: experiment.recorded(column) for column in experiment.match.values()}
+        resolution = {name: step for name in recorded if (step := experiment.recording.resolution(name))}
+        fits.append(ExperimentFit(experiment.name, experiment.time, recorded,
+                                  {column: simulated[output] for output, column in experiment.match.items()},
+                                  resolution, dict(experiment.scales), _used(residuals, u, experiment),
+                                  _overrides(experiment, residuals.shared)))
+    return fits
+
+
+def _used(residuals: Residuals, u: np.ndarray, experiment: Experiment) -> dict[str, float]:
+    """The values one recording ran with, of the parameters its model has (a stage's model
+    is one or two components; the rig's other values are carried along but never used),
+    the fit's free ones and any its sidecar sets."""
+    names = {*experiment.model.names("parameter"), *(p.name for p in residuals.free), *experiment.recording.parameters}
+    return {name: float(value) for name, value in residuals.values(u, experiment).items() if name in names}
+
+
+def _overrides(experiment: Experiment, shared: Mapping[str, float]) -> dict[str, float]:
+    """The values one recording sets for itself: its sidecar's parameters, and whatever
+    else (its initial states) differs from the values shared by all recordings."""
+    names = set(experiment.recording.parameters)
+    names |= {name for name, value in experiment.fixed.items() if shared.get(name) != value}
+    return {name: float(experiment.fixed[name]) for name in sorted(names) if name in experiment.fixed}

@@ -1,0 +1,125 @@
+"""The package's shape, held by tests (issue 23): no import cycle, no long function, and
+the public names of each documented submodule pinned.
+
+The import graph is read from the source (every `import` and `from ... import`, at any
+depth: a function-level import ties two modules as much as a top-level one), so a cycle
+cannot hide behind a lazy import.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+from pathlib import Path
+
+import pendfmu
+
+PACKAGE = Path(pendfmu.__file__).parent
+LONGEST_FUNCTION = 80  # lines, decorators and docstring included
+
+
+def modules() -> dict[str, Path]:
+    """Every module of the package by its dotted name."""
+    found = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        found[name] = path
+    return found
+
+
+def imported(name: str, path: Path, known: set[str]) -> set[str]:
+    """The package's modules that module `name` imports (a package's __init__ counts for
+    `from package import x` unless x is a submodule)."""
+    tree = ast.parse(path.read_text())
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    targets = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            targets |= {alias.name for alias in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[:len(package.split(".")) - node.level + 1]
+                base = ".".join([*anchor, base] if base else anchor)
+            for alias in node.names:
+                sub = f"{base}.{alias.name}"
+                targets.add(sub if sub in known else base)
+    return {t for t in targets if t in known and t != name}
+
+
+def import_graph() -> dict[str, set[str]]:
+    found = modules()
+    return {name: imported(name, path, set(found)) for name, path in found.items()}
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for target in graph[node]:
+            if target not in index:
+                visit(target)
+                low[node] = min(low[node], low[target])
+            elif target in on_stack:
+                low[node] = min(low[node], index[target])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                member = stack.pop()
+                on_stack.discard(member)
+                component.append(member)
+                if member == node:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for node in graph:
+        if node not in index:
+            visit(node)
+    return found
+
+
+def test_the_cycle_finder_finds_a_cycle():
+    """The check itself: a planted loop through a package is found, a chain is not."""
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_the_package_has_no_import_cycle():
+    graph = import_graph()
+    assert "pendfmu.fitting.result" in graph and graph["pendfmu.report"]  # the graph is read
+    assert cycles(graph) == []
+
+
+def test_no_function_is_longer_than_the_limit():
+    long = []
+    for name, path in modules().items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                start = min([node.lineno, *(d.lineno for d in node.decorator_list)])
+                if node.end_lineno - start + 1 > LONGEST_FUNCTION:
+                    long.append(f"{name}.{node.name}: {node.end_lineno - start + 1} lines")
+    assert long == []
+
+
+# The public names of each submodule that declares them: a change here is a change users see.
+SUBMODULE_APIS = {
+    "pendfmu.check": ["CheckResult", "compare", "run_battery"],
+    "pendfmu.export": ["ExportPlan", "START_FILE", "export_all", "export_result", "plan_export", "write_export"],
+    "pendfmu.fmubuild": ["BuildError", "FMI_VERSIONS", "build_all", "build_fmu", "compute_guid", "fmu_path",
+                         "ensure_fmu"],
+    "pendfmu.report": ["write_report", "write_comparison"],
+}
+
+
+def test_each_documented_submodule_keeps_its_public_names():
+    for name, public in SUBMODULE_APIS.items():
+        module = importlib.import_module(name)
+        assert list(module.__all__) == public, name
+        for item in public:
+            assert getattr(module, item) is not None, f"{name}.{item}"
