@@ -89,7 +89,7 @@ class Checkpoint:
             raise UsageError(f"{path}: not a pendfmu checkpoint")
         if document.get("fingerprint") != expected:
             raise UsageError(f"{path}: this checkpoint belongs to another fit (other recordings, parameters, "
-                             f"seed or options); run the original command with --resume")
+                             f"seed or options); resume the fit it was written by")
         costs = {stage: {bytes.fromhex(key): float(cost) for key, cost in cache.items()}
                  for stage, cache in document.get("costs", {}).items()}
         return cls(path, expected, costs)

@@ -185,7 +185,7 @@ def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float], per_
         if len(gaps):
             raise RecordingError(f"{where}: column {column!r} drives {setup.name} and has {len(gaps)} missing samples "
                                  f"(the first at t = {recording.time[gaps[0]]:g} s): a drive must be complete; "
-                                 f"fit the windows between the gaps (--window)")
+                                 f"fit the windows between the gaps")
     experiment = Experiment(recording, setup, dict(fixed))
     starts = {state.parameter: state for state in setup.starts}
     stated = {setup.estimated_initial.get(column, column) for column in recording.initial}

@@ -120,6 +120,9 @@ def model_setup(model: Model, recording: Recording, drive: Mapping[str, str] | N
         match = {name: name for name in model.names("output") if "." not in name and name in columns}
     for name in drive:
         model.resolve(name, "input")
+        if interpolation == "linear" and not model.interpolates(name):
+            raise OptionError("interpolation", f"linear: the FMU that {name} drives cannot interpolate its inputs "
+                                               f"(canInterpolateInputs is false); its drives are held")
     for name in match:
         model.resolve(name, "output")
     if not match:

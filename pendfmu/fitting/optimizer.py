@@ -27,7 +27,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 from scipy.optimize import differential_evolution, least_squares
 
-from pendfmu.errors import UsageError
+from pendfmu.errors import PendfmuError, UsageError
 from pendfmu.fitting.residuals import Residuals
 from pendfmu.fitting.workers import (CandidateEvaluator, cost_and_failures, dask_costs, pause_profiler, resume_profiler,
                              worker_cost, worker_start)
@@ -169,6 +169,10 @@ def global_search(coarse: Residuals, n: int, seed: int, options: GlobalOptions,
                 coarse.sum_of_squares, [(0.0, 1.0)] * n, rng=np.random.default_rng(seed), popsize=options.popsize,
                 maxiter=options.maxiter, tol=1e-3, init="sobol", polish=False, updating="deferred",
                 workers=evaluator, callback=report)
+    except RuntimeError as error:  # scipy wraps a ValueError of the evaluation, and so pendfmu's BadInput
+        if isinstance(error.__cause__, PendfmuError):
+            raise error.__cause__ from None
+        raise
     finally:
         evaluator.close()
     if evaluator.lost and notes is not None:

@@ -67,7 +67,7 @@ def self_locking_switch(free: Sequence[FreeParameter], experiments: Sequence[Exp
     return [f"eta is searched over [{box.low:g}, {box.high:g}], which straddles {SELF_LOCKING_ETA}: with the "
             f"pendulum on the cart ({', '.join(switched)}: m_p > 0) the screw's self-locking switches inside the "
             f"box (eta > {SELF_LOCKING_ETA} makes it back-drivable); if eta is only the drive's efficiency, set "
-            f"eta_back=0 (never back-driven), or bound eta to one side with --bounds eta=LOW:HIGH"]
+            f"eta_back=0 (never back-driven), or bound eta to one side (bounds eta=LOW:HIGH)"]
 
 
 def viscous_twins(free: Sequence[FreeParameter], experiments: Sequence[Experiment]) -> list[str]:
@@ -81,7 +81,7 @@ def viscous_twins(free: Sequence[FreeParameter], experiments: Sequence[Experimen
         return []
     return ["k_fwc and k_emf are both fitted, but without an electrical lag (tau_e = 0) the back-EMF acts on "
             "the cart as viscous friction does: only k_fwc + eta*k_emf is determined. Fix k_fwc at the value of a "
-            "current-driven run (--fix k_fwc), or k_emf"]
+            "current-driven run (fix k_fwc), or k_emf"]
 
 
 def check_experiment(experiment: Experiment) -> list[str]:
@@ -189,7 +189,7 @@ def _missing_sidecar(experiment: Experiment) -> list[str]:
     assumed = [f"{name} = {experiment.fixed[name]:g}" for name in RUN_VALUES.get(experiment.setup.name, ())
                if name in experiment.fixed]
     text = (f"{_where(experiment)}: no sidecar ({sidecar}): the run is assumed to have "
-            f"{', '.join(assumed) or 'the default values'} (from --params or MODEL.md's reference rig), and the "
+            f"{', '.join(assumed) or 'the default values'} (the given params, or MODEL.md's reference rig), and the "
             f"sensor's error scale is estimated from the data")
     if experiment.setup.name == "cart" and experiment.fixed.get("m_p", 0.0) > 0:
         text += "; if the pendulum was removed for this run, state \"parameters\": {\"m_p\": 0} in the sidecar"

@@ -54,7 +54,7 @@ class Stage:
 
 
 STAGES: dict[str, Stage] = {
-    "current": Stage("current", "CurrentLoop", ("I",), ("T_i", "dIdt_max"), ("I_c",)),
+    "current": Stage("current", "CurrentLoop", ("I",), ("T_i", "dIdt_max"), ("I_c",), starts=(StartState("I0", "I"),)),
     "cart": Stage("cart", "Cart", ("x",), ("eta", "k_fwc", "F_Kc", "F_Sc"), ("I_c", "I", "u"),
                   coarse_solver_step=4e-4, starts=(StartState("x0", "x"), StartState("v0", "x", rate=True))),
     "pendulum": Stage("pendulum", "Pendulum", ("phi",), ("k_fwp", "T_Kp", "T_Sp"), ("a", ""),

@@ -168,12 +168,12 @@ def _bound_flag(p: FreeParameter, lower: bool) -> str:
         if lower:
             return f"at its lower bound: equal to {p.relative_to} (no stiction beyond Coulomb friction)"
         return (f"at {ratio:g} times {p.relative_to}, the upper bound of the search: widen it with "
-                f"--bounds {p.name}=LOW:HIGH (absolute values)")
+                f"bounds {p.name}=LOW:HIGH (absolute values)")
     bound = p.low if lower else p.high
     # the name as --bounds takes it: a recording's own parameter (phi0[run1]) by its plain
     # name, which sets the box of every recording's
     return (f"at its {'lower' if lower else 'upper'} bound {bound:g}: the optimum may lie beyond; "
-            f"widen the bounds (--bounds {p.name}=LOW:HIGH) or check the model")
+            f"widen its bounds ({p.name}=LOW:HIGH) or check the model")
 
 
 def nrmse(experiments: list[ExperimentFit]) -> dict[str, float]:

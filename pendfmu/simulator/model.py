@@ -198,6 +198,15 @@ class Model:
             return declared
         return [name for name in self._names["input"] if "." not in name and self._names["input"][name]]
 
+    def interpolates(self, name: str) -> bool:
+        """Whether every FMU an input name drives can interpolate its inputs between
+        communication points (canInterpolateInputs): what a linear drive needs."""
+        for port in self.resolve(name, "input"):
+            cosimulation = self.instances[port.instance].description().coSimulation
+            if cosimulation is None or not cosimulation.canInterpolateInputs:
+                return False
+        return True
+
     def resolve(self, name: str, causality: str) -> list[Port]:
         """The ports a name stands for; an unknown or ambiguous name is a ModelError that
         lists the valid names."""
