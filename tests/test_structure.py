@@ -123,3 +123,14 @@ def test_each_documented_submodule_keeps_its_public_names():
         assert list(module.__all__) == public, name
         for item in public:
             assert getattr(module, item) is not None, f"{name}.{item}"
+
+
+def test_a_missing_compiler_is_exit_5_in_one_line(tmp_path, monkeypatch, capsys):
+    """BuildError is in the error tree: a machine without the compiler reads as such, not
+    as pendfmu's internal failure (exit 1) with a FileNotFoundError."""
+    from pendfmu.cli import main
+
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
+    assert main(["build", "--out", str(tmp_path / "fmus"), "--fmi", "2", "--force"]) == 5
+    err = capsys.readouterr().err
+    assert "cannot build the FMUs: no C compiler" in err and "no-such-cc" in err and len(err.splitlines()) == 1
