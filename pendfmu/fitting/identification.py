@@ -229,20 +229,20 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
                             f"the recordings show, the data are mis-scaled, or the sidecar understates the noise")
         if outcome.failures:
             notes.append(f"{outcome.failures} simulations failed during the fit and were penalized "
-                         f"(last: {residuals.last_failure or coarse.last_failure})")
+                         f"(last: {outcome.last_failure or 'no reason reported'})")
         found = physical(free_parameters, outcome.u)
         fitted = {p.name: float(v) for p, v in zip(free_parameters, found) if p.experiment is None}
         if preset and stage in JOINTS:
             try:
                 notes += bound_stiction(stage, residuals, outcome.u, estimates, fitted, assessed.values)
             except FMUError as error:  # the result is written regardless
-                notes.append(f"the stiction's set could not be checked: the simulation at the result fails ({error})")
+                notes.append(f"the stiction's set could not be checked: the simulation at the result fails ({error.reason()})")
         final_values = [fitted.get(p.name, v) if p.experiment is None else v for p, v in zip(free_parameters, found)]
         try:
             fits = _experiment_fits(residuals, unit_of(free_parameters, final_values))
         except FMUError as error:
             fits = []
-            notes.append(f"the simulation at the result fails ({error}): no fit statistics")
+            notes.append(f"the simulation at the result fails ({error.reason()}): no fit statistics")
         if spread > MODEL_ERROR_LIMIT:
             warnings += drift_warnings(fits)
     finally:
