@@ -27,11 +27,11 @@ from pendfmu.fitting.progress import Progress
 from pendfmu.fitting.provenance import fit_record
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.fitting.result import ExperimentFit, FitResult, flag_warnings, nrmse
-from pendfmu.components import rig_defaults
 from pendfmu.fitting.stages import STAGES, make_experiment, stage_free_parameters
 from pendfmu.fitting.stiction import JOINTS, bound_stiction
 from pendfmu.fitting.uncertainty import REPLICATES, assess_uncertainty
-from pendfmu.parameters import ParameterFileError, check_parameters
+from pendfmu.parameters import ParameterFileError, check_parameters, rig_values
+from pendfmu.physics import settled
 from pendfmu.recording import Recording, RecordingError, read_recording
 from pendfmu.recording.measurement import measurement_signal, no_effect
 from pendfmu.recording.windows import cut
@@ -165,9 +165,10 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
     preset = isinstance(model, str) and model in STAGES
     if preset:
         stage = model
-        values = {**rig_defaults(), **check_parameters(params or {})}
+        values = rig_values(params)  # J_cm becomes J_p with each recording's m_p and l, then here
         experiments = [make_experiment(r, stage, values, drive, per_recording, start)
                        for r in _parts(_recordings(recordings), windows, segment)]
+        values = settled(values, "params")
     else:
         user = _user_model(model)
         stage = user.name

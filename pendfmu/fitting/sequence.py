@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.components import rig_defaults
 from pendfmu.fitting.checkpoint import Checkpoint
 from pendfmu.fitting.identification import _recordings, fit
 from pendfmu.fitting.optimizer import GlobalOptions
@@ -23,7 +22,7 @@ from pendfmu.fitting.result import ExperimentFit, FitResult
 from pendfmu.fitting.ripple import fit_current
 from pendfmu.fitting.stages import STAGES, make_experiment
 from pendfmu.fitting.uncertainty import REPLICATES
-from pendfmu.parameters import check_parameters
+from pendfmu.parameters import rig_values
 from pendfmu.recording import Recording, RecordingError, read_recording
 
 
@@ -74,7 +73,7 @@ def skipped_in_folder(folder: str | Path, groups: Mapping[str | None, list[Recor
 def check_recordings(stage: str, recordings: Sequence[str | Path | Recording],
                      params: Mapping[str, float] | None = None, drive: str | None = None) -> list[str]:
     """The plausibility warnings of a stage's recordings (plausibility.py), without fitting."""
-    values = {**rig_defaults(), **check_parameters(params or {})}
+    values = rig_values(params)
     return [w for r in _recordings(recordings) for w in check_experiment(make_experiment(r, stage, values, drive))]
 
 
