@@ -241,12 +241,12 @@ def write_experiments(out: str | Path, truth: Mapping[str, float] | None = None,
     """Write every experiment's recording into `out`, and the truth as truth.json (with
     the noise seed, each recording's own true values such as a release angle under
     "recordings", and `about`, e.g. how the truth was chosen)."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     values = settled(overlay(reference_truth(), truth or {}, "the rig's parameters"), "the rig's parameters")
     experiments = experiments or standard_experiments()
-    for experiment in experiments:  # each rig as it runs, refused before the first is simulated
+    for experiment in experiments:  # each rig as it runs, refused before anything is simulated or written
         experiment_truth(experiment, values)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     sensors = Sensors(values["k_D"], np.random.default_rng(seed))
     paths = []
     for experiment in progress(experiments, "recording the virtual rig", label=lambda e: e.name):

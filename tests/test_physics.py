@@ -191,3 +191,32 @@ def test_a_user_models_box_is_cut_to_the_rules_and_its_declared_range(decay):
     boxes = {p.name: p for p in model_free_parameters(model, ["J_p"], [], {"J_p": (1e-6, 1.0)}, model.defaults(),
                                                       experiments)}
     assert (boxes["J_p"].low, boxes["J_p"].high) == (POINT_MASS, 1.0)
+
+
+@pytest.mark.parametrize("command", ["fit all", "simulate", "rig", "export", "system"])
+def test_every_command_refuses_a_centre_of_mass_j_p_before_work(command, decay, cart_recording, tmp_path, capsys,
+                                                                 monkeypatch):
+    """Where values are assembled (fit all, simulate, rig, export, system): exit 2 with the
+    message that tells pivot from centre of mass, and no FMU instantiated."""
+    def no_fmu(*args, **kwargs):
+        raise AssertionError("an FMU was instantiated")
+
+    monkeypatch.setattr(component.ComponentFMU, "__init__", no_fmu)
+    params = tmp_path / "P.json"
+    params.write_text(json.dumps({"parameters": {"J_p": 0.0015}}))
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    for recording in (decay, cart_recording):
+        shutil.copy(recording, folder)
+        shutil.copy(recording.with_suffix(".json"), folder)
+    out = tmp_path / "out"
+    argv = {"fit all": ["fit", "all", str(folder), "--params", str(params), "--out", str(out)],
+            "simulate": ["simulate", "--params", str(params), "--input",
+                         str(with_sidecar_parameters(cart_recording, tmp_path, {}, "run.csv")), "--out", f"{out}.csv"],
+            "rig": ["rig", "--params", str(params), "--out", str(out)],
+            "export": ["export", "--params", str(params), "--out", str(out)],
+            "system": ["system", "--component", "Pendulum", "--set", "J_p=0.0015", "--out", f"{out}.ssp"]}[command]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "J_p = 0.0015 kg.m2 is below m_p*l^2" in err and "J_cm" in err, err
+    assert not list(tmp_path.glob("out*")) and not (out.exists() and any(out.iterdir()))

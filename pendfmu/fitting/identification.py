@@ -237,7 +237,8 @@ def fit(model: str | Path | Model, recordings: Sequence[str | Path | Recording],
             try:
                 notes += bound_stiction(stage, residuals, outcome.u, estimates, fitted, assessed.values)
             except FMUError as error:  # the result is written regardless
-                notes.append(f"the stiction's set could not be checked: the simulation at the result fails ({error.reason()})")
+                notes.append(f"the stiction's set could not be checked: the simulation at the result fails "
+                             f"({error.reason()})")
         final_values = [fitted.get(p.name, v) if p.experiment is None else v for p, v in zip(free_parameters, found)]
         try:
             fits = _experiment_fits(residuals, unit_of(free_parameters, final_values))
