@@ -39,6 +39,15 @@ def decay(tmp_path_factory):
     return out / "decay.csv"
 
 
+@pytest.fixture
+def no_fmu(monkeypatch):
+    """Any FMU instantiated fails the test: a refusal must come before any simulation."""
+    def refuse(*args, **kwargs):
+        raise AssertionError("an FMU was instantiated")
+
+    monkeypatch.setattr(component.ComponentFMU, "__init__", refuse)
+
+
 def with_sidecar_parameters(recording, folder, parameters, name=None):
     """A copy of `recording` (named `name`) whose sidecar sets `parameters`."""
     copy = folder / (name or recording.name)
@@ -84,13 +93,9 @@ def test_search_limits_follow_the_rules():
     assert physics.limits("eta", {}) == (-np.inf, np.inf)
 
 
-def test_a_centre_of_mass_inertia_as_j_p_is_exit_2_before_any_simulation(decay, tmp_path, capsys, monkeypatch):
+def test_a_centre_of_mass_inertia_as_j_p_is_exit_2_before_any_simulation(decay, tmp_path, capsys, no_fmu):
     """The mistake of the real decay: J_p from published data about the centre of mass. The
     fit refuses it with exit 2, having instantiated no FMU and written nothing."""
-    def no_fmu(*args, **kwargs):
-        raise AssertionError("an FMU was instantiated")
-
-    monkeypatch.setattr(component.ComponentFMU, "__init__", no_fmu)
     params = tmp_path / "P.json"
     params.write_text(json.dumps({"parameters": {"J_p": 0.0015}}))
     out = tmp_path / "fit.json"
@@ -195,13 +200,9 @@ def test_a_user_models_box_is_cut_to_the_rules_and_its_declared_range(decay):
 
 @pytest.mark.parametrize("command", ["fit all", "simulate", "rig", "export", "system"])
 def test_every_command_refuses_a_centre_of_mass_j_p_before_work(command, decay, cart_recording, tmp_path, capsys,
-                                                                 monkeypatch):
+                                                                 no_fmu):
     """Where values are assembled (fit all, simulate, rig, export, system): exit 2 with the
     message that tells pivot from centre of mass, and no FMU instantiated."""
-    def no_fmu(*args, **kwargs):
-        raise AssertionError("an FMU was instantiated")
-
-    monkeypatch.setattr(component.ComponentFMU, "__init__", no_fmu)
     params = tmp_path / "P.json"
     params.write_text(json.dumps({"parameters": {"J_p": 0.0015}}))
     folder = tmp_path / "folder"
