@@ -69,6 +69,20 @@ class FMUError(PendfmuError, RuntimeError):
         self.time = time
         self.messages = list(messages)
 
+    def reason(self) -> str:
+        """The failure in words, never empty: the message, else what is known of where it
+        happened (instance, function, time, the FMU's last words). Why: a fit reports the
+        last failed simulation, and "(last: )" told the user nothing."""
+        said = str(self)
+        if said:
+            return said
+        where = [f"{label} {value}" for label, value in (("instance", self.instance), ("function", self.function))
+                 if value]
+        if self.time is not None:
+            where.append(f"t = {self.time:.9g} s")
+        logged = self.messages[-1] if self.messages else "no message logged"
+        return f"{', '.join(where) or 'an FMU call'} failed: {logged}"
+
 
 class BuildError(PendfmuError, RuntimeError):
     """The FMUs cannot be built here: no C compiler, the sources missing, or the compiler

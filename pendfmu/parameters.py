@@ -4,7 +4,9 @@ Names are those of the component tables. A name that several components share (m
 are in Cart and Pendulum) means the same physical quantity and goes to all of them.
 Absent names keep the FMU defaults. An unknown name, a value that is not a finite number,
 or a value outside its physical range is a :class:`ParameterFileError` that names the
-file, the parameter and what is allowed.
+file, the parameter and what is allowed. The pendulum's inertia may be given about its
+centre of mass, as J_cm (physics.py); values that break a rule between parameters
+(physics.py: J_p below m_p l^2, an asymmetry above its mean) are refused before any work.
 """
 
 from __future__ import annotations
@@ -14,7 +16,8 @@ import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from pendfmu.components import COMPONENTS, parameter_table
+from pendfmu import physics
+from pendfmu.components import COMPONENTS, parameter_table, rig_defaults
 from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
 from pendfmu.recording.measurement import is_measurement, measurement_problem
@@ -37,6 +40,8 @@ def check_value(name: str, value: object, where: str = "") -> float:
     """The value as a float, or a ParameterFileError naming the parameter and its range."""
     prefix = f"{where}: " if where else ""
     known = parameter_table()
+    if name == physics.J_CM:  # the pendulum's inertia about its centre of mass: becomes J_p
+        known = {**known, name: physics.CENTRE_OF_MASS_INERTIA}
     if name not in known and is_measurement(name, SIGNAL_NAMES):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ParameterFileError(f"{prefix}parameter {name} = {value!r} is not a number")
@@ -54,14 +59,38 @@ def check_value(name: str, value: object, where: str = "") -> float:
         raise ParameterFileError(f"{prefix}parameter {name} = {value} is not finite")
     # A shared name is valid when one of its components takes it: m_p = 0 is a cart with
     # the pendulum removed, although a Pendulum cannot have zero mass (it then must not run).
-    problem = outside(name, value, [COMPONENTS[c].parameters[name] for c in parameter_owners(name)])
+    problem = outside(name, value, [COMPONENTS[c].parameters[name] for c in parameter_owners(name)] or
+                      [known[name]])
     if problem:
         raise ParameterFileError(f"{prefix}parameter {problem}")
     return value
 
 
 def check_parameters(values: Mapping[str, object], where: str = "") -> dict[str, float]:
-    return {name: check_value(name, value, where) for name, value in values.items()}
+    """Each value checked (check_value), and the rules between parameters among those one
+    source gives (physics.own_problems): a file with m_p, l and a J_p below m_p l^2 is
+    refused naming that file."""
+    checked = {name: check_value(name, value, where) for name, value in values.items()}
+    broken = physics.own_problems(checked)
+    if broken:
+        raise physics.PhysicsError(f"{where + ': ' if where else ''}{broken[0]}")
+    return checked
+
+
+def rig_values(params: Mapping[str, object] | None, where: str = "") -> dict[str, float]:
+    """The reference rig's values with `params` (checked) over them: a fit's known values
+    before each recording's sidecar (recording_values). J_cm stays as given: it becomes J_p
+    with each recording's m_p and l."""
+    return physics.overlay(rig_defaults(), check_parameters(params or {}, where), where)
+
+
+def recording_values(values: Mapping[str, float], recording) -> dict[str, float]:
+    """The values one recording runs with: `values`, then what its sidecar fixes, then its
+    known initial states; J_cm converted to J_p and every rule between parameters checked
+    (physics.settled), so that an impossible rig is refused before any simulation."""
+    where = str(recording.path)
+    fixed = physics.overlay(values, check_parameters(recording.parameters, where), where)
+    return physics.settled(with_initial_states(fixed, recording.initial, where), where)
 
 
 def read_parameters(path: str | Path, check: Callable[[Mapping[str, object], str], dict[str, float]] | None = None

@@ -26,6 +26,7 @@ from pendfmu.components import COMPONENTS, back_drivable, rig_defaults
 from pendfmu.console import progress
 from pendfmu.fitting.labels import is_own
 from pendfmu.parameters import write_parameters
+from pendfmu.physics import overlay, settled
 from pendfmu.recording import Recording, SignalInfo, quantize, write_recording
 from pendfmu.simulator.component import ComponentFMU
 from pendfmu.simulator.graph import Connection
@@ -184,9 +185,16 @@ def _of(component: str, values: Mapping[str, float]) -> dict[str, float]:
     return {k: v for k, v in values.items() if k in COMPONENTS[component].parameters}
 
 
+def experiment_truth(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, float]:
+    """The values an experiment runs with: the truth, its own overrides, its sidecar's (a
+    J_cm as J_p), checked together (physics.settled)."""
+    where = f"experiment {experiment.name}"
+    return settled(overlay({**truth, **experiment.truth_overrides}, experiment.sidecar_parameters, where), where)
+
+
 def simulate_truth(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
     """The true signals of an experiment at its sample times."""
-    values = {**truth, **experiment.truth_overrides, **experiment.sidecar_parameters}
+    values = experiment_truth(experiment, truth)
     times = np.arange(int(round(experiment.duration / experiment.sample)) + 1) * experiment.sample
     if experiment.kind == "current":
         with ComponentFMU("CurrentLoop", _of("CurrentLoop", values)) as loop:
@@ -234,11 +242,13 @@ def write_experiments(out: str | Path, truth: Mapping[str, float] | None = None,
     """Write every experiment's recording into `out`, and the truth as truth.json (with
     the noise seed, each recording's own true values such as a release angle under
     "recordings", and `about`, e.g. how the truth was chosen)."""
+    values = settled(overlay(reference_truth(), truth or {}, "the rig's parameters"), "the rig's parameters")
+    experiments = experiments or standard_experiments()
+    for experiment in experiments:  # each rig as it runs, refused before anything is simulated or written
+        experiment_truth(experiment, values)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    values = {**reference_truth(), **(truth or {})}
     sensors = Sensors(values["k_D"], np.random.default_rng(seed))
-    experiments = experiments or standard_experiments()
     paths = []
     for experiment in progress(experiments, "recording the virtual rig", label=lambda e: e.name):
         recording = record(experiment, values, sensors)

@@ -153,3 +153,19 @@ def test_a_foreign_fmu_fit_on_dask_equals_local_processes(cluster, tmp_path):
     assert main(command + ["--out", str(tmp_path / "dask.json"), "--scheduler", cluster.scheduler_address]) == 0
     assert result_without_time(tmp_path / "dask.json") == result_without_time(tmp_path / "local.json")
     assert result_without_time(tmp_path / "dask.json")["parameters"]["k_u"] == pytest.approx(TRUTH["k_u"], rel=0.01)
+
+
+def test_a_failure_on_a_dask_worker_comes_back_with_its_reason(cluster, cart_residuals):
+    """A candidate outside the unit box (eta = 1.95, which the Cart refuses) fails on a Dask
+    worker; its reason reaches the fit's own residuals, which never simulated it."""
+    import numpy as np
+
+    from pendfmu.fitting.optimizer import _Evaluator
+
+    evaluator = _Evaluator(cart_residuals, 1, {}, cluster.scheduler_address)
+    try:
+        evaluator(None, [np.array([2.0, 0.5, 0.5, 0.5]), np.array([0.5, 0.5, 0.5, 0.5])])
+    finally:
+        evaluator.close()
+    assert evaluator.failures == 1 and cart_residuals.failures == 0
+    assert "eta = 1.95 is outside its physical range" in cart_residuals.last_failure

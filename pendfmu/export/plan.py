@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 from pendfmu.components import COMPONENTS, Component
 from pendfmu.parameters import ParameterFileError, check_parameters, parameter_owners
+from pendfmu.physics import settled
 from pendfmu.ranges import outside
 
 
@@ -85,7 +86,7 @@ def plan_export(parameters: Mapping[str, object], components: Iterable[str] | No
     range, or a value a requested component refuses (see the module docstring for m_p = 0).
     """
     where = source or ""
-    given = check_parameters(parameters, where)
+    given = settled(check_parameters(parameters, where), where)  # J_cm exported as J_p
     explicit = components is not None
     selected = _explicit_selection(components) if explicit else _default_selection(given)
     plan = ExportPlan(given, {}, source=source or ExportPlan.source)

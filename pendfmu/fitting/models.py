@@ -25,6 +25,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from pendfmu.errors import BadInput, OptionError
+from pendfmu.fitting.boxes import cut_to_physics
 from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare, through_sensor
 from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.recording import Recording, read_recording
@@ -177,6 +178,15 @@ def model_free_parameters(model: Model, free: Sequence[str], fix: Sequence[str],
         if name in fix or name in own:
             continue
         result.append(_free(model, name, bounds, values, experiments[:1]))
+    result = _per_recording(model, result, fix, bounds, values, experiments)
+    return cut_to_physics(result, {e.name: {**values, **e.fixed} for e in experiments},
+                          lambda name: _declared(model, name))
+
+
+def _per_recording(model: Model, result: list[FreeParameter], fix: Sequence[str],
+                   bounds: Mapping[str, tuple[float, float]], values: Mapping[str, float],
+                   experiments: Sequence[Experiment]) -> list[FreeParameter]:
+    """`result` (the shared free parameters) and each recording's own after them."""
     shared = {p.name: p for p in result}
     for experiment in experiments:
         for name, (_guess, low, high) in experiment.estimated.items():
@@ -204,11 +214,23 @@ def _free(model: Model, name: str, bounds: Mapping[str, tuple[float, float]], va
     return FreeParameter(name, float(low), float(high), log)
 
 
+def _declared(model: Model, name: str) -> tuple[float | None, float | None]:
+    """The range the model description declares for a parameter (every port of its name);
+    None for an end it leaves open, and for a measurement parameter."""
+    try:
+        ports = model.resolve(name, "parameter")
+    except ModelError:
+        return None, None
+    declared = [model.variables[port] for port in ports]
+    return (max((d.low for d in declared if d.low is not None), default=None),
+            min((d.high for d in declared if d.high is not None), default=None))
+
+
 def _box(model: Model, name: str, start: float | None) -> tuple[float, float]:
     """The declared range where it is finite, else a decade either side of the start."""
-    declared = [model.variables[port] for port in model.resolve(name, "parameter")]
-    low = max((d.low for d in declared if d.low is not None), default=-math.inf)
-    high = min((d.high for d in declared if d.high is not None), default=math.inf)
+    low, high = _declared(model, name)
+    low = -math.inf if low is None else low
+    high = math.inf if high is None else high
     if math.isfinite(low) and math.isfinite(high) and high > low:
         return low, high
     if start is None or start == 0 or not math.isfinite(start):

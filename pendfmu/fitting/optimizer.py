@@ -51,6 +51,7 @@ class Outcome:
     seconds: float
     global_best: float | None = None
     messages: list[str] = field(default_factory=list)
+    last_failure: str = ""  # why the last failed simulation failed ("" when none did)
 
 
 WORKER_WAIT = 60.0  # seconds a fit waits for a Dask scheduler's first worker
@@ -94,9 +95,11 @@ class _Evaluator:
         keys = [c.tobytes() for c in candidates]
         missing = [k for k, key in enumerate(keys) if key not in self.cache]
         # Each cost is remembered as soon as it is known, so an interrupt loses none.
-        for k, (cost, failed) in zip(missing, self._costs([candidates[k] for k in missing])):
+        for k, (cost, failed, reason) in zip(missing, self._costs([candidates[k] for k in missing])):
             self.cache[keys[k]] = cost
             self.failures += failed
+            if reason:  # from a worker's copy of the residuals: the fit's own did not see it
+                self.residuals.last_failure = reason
         return [self.cache[key] for key in keys]
 
     def _costs(self, candidates):
@@ -123,7 +126,7 @@ class _Evaluator:
         except Exception as lost:
             return lost
 
-    def _actor_result(self, chunk, call) -> list[tuple[float, int]]:
+    def _actor_result(self, chunk, call) -> list[tuple[float, int, str]]:
         """An actor's costs; if its worker has gone (an actor does not move), the chunk runs
         as an ordinary task on any worker the cluster still has, and nothing is lost."""
         try:
@@ -232,7 +235,13 @@ def optimize(residuals: Residuals, coarse: Residuals | None, u0: np.ndarray, see
         jacobian = np.zeros((len(residual), 0))
     # least_squares does not count the evaluations of its finite-difference Jacobian.
     return Outcome(u, jacobian, residual, nfev + residuals.evaluations, failures + residuals.failures,
-                   time.perf_counter() - start, global_best, messages)
+                   time.perf_counter() - start, global_best, messages, last_failure(residuals, coarse))
+
+
+def last_failure(residuals: Residuals, coarse: Residuals | None) -> str:
+    """Why the fit's last failed simulation failed: the local refinement's (it runs last),
+    else the global search's, whose workers sent their reasons back (_Evaluator)."""
+    return residuals.last_failure or (coarse.last_failure if coarse is not None else "")
 
 
 def jacobian_threads(options: GlobalOptions) -> int:

@@ -14,7 +14,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from pendfmu.components import rig_defaults
 from pendfmu.errors import OptionError
 from pendfmu.fitting.experiment import Experiment
 from pendfmu.fitting.models import (checked_values, initial_map, mapping, model_experiments,
@@ -23,7 +22,8 @@ from pendfmu.fitting.plausibility import check_experiment, self_locking_switch, 
 from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.fitting.spec import STAGE_NAMES, FitSpec
 from pendfmu.fitting.stages import make_experiment, stage_free_parameters
-from pendfmu.parameters import check_parameters, read_parameters
+from pendfmu.parameters import check_parameters, read_parameters, rig_values
+from pendfmu.physics import settled
 from pendfmu.recording import Recording, RecordingError, read_recording
 from pendfmu.recording.windows import cut
 from pendfmu.simulator.model import Model
@@ -76,9 +76,10 @@ def stage_problem(spec: FitSpec) -> Problem:
     """A stage of the paper: its components, drives, matches and free parameters (stages.py)."""
     stage = spec.target
     known = given_values(spec)
-    values = {**rig_defaults(), **known}
+    values = rig_values(known)  # J_cm becomes J_p with each recording's m_p and l, then here
     experiments = [make_experiment(r, stage, values, spec.drive, spec.per_recording, spec.start or "estimated")
                    for r in _parts(_read(spec.recordings), spec)]
+    values = settled(values, "params")
     _distinct(experiments)
     _check_starts(spec, f"the {stage} stage", experiments)
     data_warnings = [w for e in experiments for w in check_experiment(e)]

@@ -164,7 +164,7 @@ class Residuals:
         except FMUError as error:
             with self._lock:
                 self.failures += 1
-                self.last_failure = str(error)
+                self.last_failure = error.reason()
             return np.full(self.size, PENALTY)
         parts = []
         for k, (experiment, result) in enumerate(zip(self.experiments, simulated)):

@@ -105,7 +105,7 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
         bar("uncertainty")
         assessed = assess_uncertainty(spec.uncertainty, residuals, outcome, spec.replicate_count, upstream, options)
         found = _Found(problem, residuals, outcome, assessed)
-        found.failures_note(coarse)
+        found.failures_note()
         found.stiction()
         found.statistics()
     finally:
@@ -164,11 +164,10 @@ class _Found:
                                  f"something the recordings show, the data are mis-scaled, or the sidecar "
                                  f"understates the noise")
 
-    def failures_note(self, coarse: Residuals) -> None:
+    def failures_note(self) -> None:
         if self.outcome.failures:
-            reason = self.residuals.last_failure or coarse.last_failure or "not reported by the workers"
             self.notes.append(f"{self.outcome.failures} simulations failed during the fit and were penalized "
-                              f"(last: {reason})")
+                              f"(last: {self.outcome.last_failure or 'no reason reported'})")
 
     def stiction(self) -> None:
         """A stage's stiction that the recordings only bound becomes that set (stiction.py)."""
@@ -179,7 +178,8 @@ class _Found:
             self.notes += bound_stiction(stage, self.residuals, self.outcome.u, self.estimates, self.fitted,
                                          self.assessed.values)
         except FMUError as error:  # the result is written regardless
-            self.notes.append(f"the stiction's set could not be checked: the simulation at the result fails ({error})")
+            self.notes.append(f"the stiction's set could not be checked: the simulation at the result fails "
+                              f"({error.reason()})")
 
     def statistics(self) -> None:
         free = self.problem.free
@@ -187,7 +187,7 @@ class _Found:
         try:
             self.fits = experiment_fits(self.residuals, unit_of(free, final))
         except FMUError as error:
-            self.notes.append(f"the simulation at the result fails ({error}): no fit statistics")
+            self.notes.append(f"the simulation at the result fails ({error.reason()}): no fit statistics")
         if self.spread > MODEL_ERROR_LIMIT:
             self.warnings += drift_warnings(self.fits)
 

@@ -27,9 +27,10 @@ import numpy as np
 
 from pendfmu.components import COMPONENTS
 from pendfmu.errors import OptionError
+from pendfmu.fitting.boxes import cut_to_physics
 from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare, through_sensor
 from pendfmu.fitting.residuals import FreeParameter
-from pendfmu.parameters import INITIAL_STATE_PARAMETERS, check_parameters, with_initial_states
+from pendfmu.parameters import INITIAL_STATE_PARAMETERS, recording_values
 from pendfmu.recording import Recording, RecordingError
 from pendfmu.recording.measurement import default_box, is_measurement, measurement_signal
 from pendfmu.simulator.graph import Connection
@@ -155,9 +156,7 @@ def make_experiment(recording: Recording, stage: str, parameters: Mapping[str, f
             raise RecordingError(f"{where}: stage {stage} needs the recorded signal {name!r}; "
                                  f"columns: {', '.join(('time', *recording.signals))}")
     chosen = _choose_drive(recording, spec, drive)
-    fixed = dict(parameters)
-    fixed.update(check_parameters(recording.parameters, where))
-    fixed = with_initial_states(fixed, recording.initial, where)
+    fixed = recording_values(parameters, recording)
     return prepare(recording, stage_setup(stage, chosen), fixed, per_recording, start)
 
 
@@ -369,7 +368,13 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
                 low, high = through_sensor(experiment, name, low, high, shared)
                 log = False
             result.append(FreeParameter(name, float(low), float(high), log, experiment.name))
-    return result
+    return cut_to_physics(result, {e.name: e.fixed for e in experiments}, lambda name: _declared(component, name))
+
+
+def _declared(component, name: str) -> tuple[float | None, float | None]:
+    """A parameter's range in the component's table ((None, None) for a sensor's parameter)."""
+    row = component.parameters.get(name)
+    return (None, None) if row is None else (row.low, row.high)
 
 
 def _box(name: str, names: Sequence[str], fix: Sequence[str], bounds: Mapping[str, tuple[float, float]],

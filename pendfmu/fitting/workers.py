@@ -27,14 +27,17 @@ def worker_start(residuals: Residuals) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
 
 
-def cost_and_failures(residuals: Residuals, u: np.ndarray) -> tuple[float, int]:
-    """(cost, simulations that failed) of one candidate."""
+def cost_and_failures(residuals: Residuals, u: np.ndarray) -> tuple[float, int, str]:
+    """(cost, simulations that failed, why the last of them failed: "" if none) of one
+    candidate. The reason travels back with the cost: in a worker process or on a Dask
+    worker, `residuals` is that worker's copy, and the fit's own never hears of it."""
     before = residuals.failures
     cost = residuals.sum_of_squares(u)
-    return cost, residuals.failures - before
+    failed = residuals.failures - before
+    return cost, failed, residuals.last_failure if failed else ""
 
 
-def worker_cost(u: np.ndarray) -> tuple[float, int]:
+def worker_cost(u: np.ndarray) -> tuple[float, int, str]:
     """cost_and_failures of one candidate, in a local worker process."""
     return cost_and_failures(_WORKER_RESIDUALS, u)
 
@@ -42,7 +45,7 @@ def worker_cost(u: np.ndarray) -> tuple[float, int]:
 _DASK_LOCK = threading.Lock()
 
 
-def dask_costs(candidates: list[np.ndarray], residuals: Residuals) -> list[tuple[float, int]]:
+def dask_costs(candidates: list[np.ndarray], residuals: Residuals) -> list[tuple[float, int, str]]:
     """On a Dask worker, a chunk of candidates, for the worker's CandidateEvaluator (which
     keeps `residuals` and so its FMU instances, reset per run, for the whole search) or as a
     task when that actor's worker was lost. The lock keeps a multi-threaded worker from
@@ -60,7 +63,7 @@ class CandidateEvaluator:
     def __init__(self, residuals: Residuals):
         self.residuals = residuals
 
-    def costs(self, candidates: list[np.ndarray]) -> list[tuple[float, int]]:
+    def costs(self, candidates: list[np.ndarray]) -> list[tuple[float, int, str]]:
         return dask_costs(candidates, self.residuals)
 
 

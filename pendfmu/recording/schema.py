@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 from pendfmu.components import COMPONENTS, parameter_table
 from pendfmu.errors import BadInput
+from pendfmu.physics import CENTRE_OF_MASS_INERTIA
 from pendfmu.ranges import outside
 from pendfmu.recording.measurement import is_measurement, measurement_problem
 from pendfmu.suggest import did_you_mean
@@ -42,8 +43,9 @@ SIGNAL_NAMES: tuple[str, ...] = _signal_names()
 """Valid column names of a recording: the components' inputs and outputs."""
 
 
-PARAMETER_NAMES: tuple[str, ...] = tuple(parameter_table())
-"""Valid keys of the sidecar's ``parameters``: every parameter once (m_p and l are shared by two)."""
+PARAMETER_NAMES: tuple[str, ...] = (*parameter_table(), CENTRE_OF_MASS_INERTIA.name)
+"""Valid keys of the sidecar's ``parameters``: every parameter once (m_p and l are shared by
+two), and J_cm, the pendulum's inertia about its centre of mass (physics.py)."""
 
 
 INITIAL_NAMES: tuple[str, ...] = _initial_names()
@@ -106,7 +108,8 @@ def _parameter_problem(name: str, value: float) -> str | None:
         return f"unknown parameter{did_you_mean(name, PARAMETER_NAMES)}; valid: {', '.join(PARAMETER_NAMES)}"
     if not math.isfinite(value):
         return f"must be finite, got {value!r}"
-    return outside(name, value, [c.parameters[name] for c in COMPONENTS.values() if name in c.parameters])
+    return outside(name, value, [c.parameters[name] for c in COMPONENTS.values() if name in c.parameters] or
+                   [CENTRE_OF_MASS_INERTIA])
 
 
 def _initial_problem(name: str, value: float) -> str | None:

@@ -13,7 +13,7 @@ import pandas as pd
 from pendfmu.components import CART
 from pendfmu.fmubuild import build_all
 from pendfmu.fmubuild.compiler import FMUS_DIR
-from pendfmu.parameters import check_parameters, with_initial_states
+from pendfmu.parameters import recording_values
 from pendfmu.recording import Recording, RecordingError
 from pendfmu.simulator.master import ExternalInput, Master
 from pendfmu.ssp import rig_system
@@ -26,10 +26,9 @@ OUTPUT_COLUMNS = dict(RIG_OUTPUTS)
 
 def experiment_parameters(parameters: Mapping[str, float], recording: Recording) -> dict[str, float]:
     """Rig parameters for one recording: the given values, then the values its sidecar
-    fixes for this experiment, then its known initial states."""
-    values = dict(parameters)
-    values.update(check_parameters(recording.parameters, f"{recording.path}"))
-    return with_initial_states(values, recording.initial, str(recording.path))
+    fixes for this experiment, then its known initial states, checked together
+    (parameters.recording_values)."""
+    return recording_values(parameters, recording)
 
 
 def simulate_recording(parameters: Mapping[str, float], recording: Recording, step: float = 2e-4,

@@ -27,7 +27,9 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from pendfmu.components import ALL_COMPONENTS
 from pendfmu.errors import BadInput
+from pendfmu.physics import J_CM, overlay, settled
 from pendfmu.ssp.fmu import describe_fmu
 from pendfmu.ssp.model import Connection, Connector, Experiment, FmuComponent, ParameterValue, System
 
@@ -36,7 +38,6 @@ _KINDS = {"Real": float, "Integer": int, "Boolean": bool}
 
 def _fmu_of(name: str, source: str | Path) -> Path:
     """The FMU file of a component: a file, or pendfmu's own component of that name."""
-    from pendfmu.components import ALL_COMPONENTS
     from pendfmu.fmubuild import ensure_fmu
 
     path = Path(source)
@@ -81,19 +82,42 @@ def compose(components: Mapping[str, str | Path], connections: Sequence[str],
                 raise BadInput(f"connection {text!r}: {element} has no {kind} {connector!r} ({', '.join(names)})")
         wires.append(wire)
     values = {n: dict(d.starts) for n, d in fmus.items()}
+    given: dict[str, dict[str, float]] = {n: {} for n in fmus}
     for key, value in (parameters or {}).items():
-        component, parameter = _target(key, fmus)
+        centre_of_mass = key.rpartition(".")[2] == J_CM  # written as J_p (_physical)
+        component, parameter = _target(key[:-len(J_CM)] + "J_p" if centre_of_mass else key, fmus)
         declared = next(c for c in fmus[component].connectors if c.name == parameter)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise BadInput(f"parameter {key} = {value!r}: not a finite number")
         if declared.type == "Integer" and float(value) != int(value):
             raise BadInput(f"parameter {key} = {value!r}: an Integer")
-        values[component][parameter] = ParameterValue(_KINDS[declared.type](value), declared.unit, declared.type)
+        given[component][J_CM if centre_of_mass else parameter] = float(value)
+        if not centre_of_mass:
+            values[component][parameter] = ParameterValue(_KINDS[declared.type](value), declared.unit, declared.type)
+    _physical(components, given, values)
     used = {c.unit for d in fmus.values() for c in d.connectors if c.unit}
     units = {u: d.units[u] for d in fmus.values() for u in sorted(used) if u in d.units}
     connectors, boundary = free_inputs(parts, wires)
     return System(name, parts, wires + boundary, values, units, experiment=Experiment(0.0, None, step_size),
                   description=description or f"{', '.join(parts)} composed by pendfmu", connectors=connectors)
+
+
+def _physical(components: Mapping[str, str | Path], given: Mapping[str, Mapping[str, float]],
+              values: dict[str, dict[str, ParameterValue]]) -> None:
+    """pendfmu's components as the rules between their parameters allow (physics.py): a
+    J_cm written as J_p, values that break a rule refused before the system is written. A
+    foreign FMU's names need not mean what MODEL.md's do: it takes no J_cm, and no rule."""
+    for name, own in given.items():
+        if str(components[name]) not in ALL_COMPONENTS:
+            if J_CM in own:
+                raise BadInput(f"parameter {name}.{J_CM}: the centre-of-mass inertia is for pendfmu's Pendulum; "
+                               f"{name} is another FMU")
+            continue
+        starts = {p: float(v.value) for p, v in values[name].items() if v.type == "Real"}
+        final = settled(overlay(starts, own, f"component {name}"), f"component {name}")
+        if J_CM in own:
+            declared = values[name]["J_p"]
+            values[name]["J_p"] = ParameterValue(final["J_p"], declared.unit, declared.type)
 
 
 def free_inputs(parts: Mapping[str, FmuComponent], wires: Sequence[Connection], taken: Sequence[str] = ()

@@ -175,12 +175,17 @@ bool instance_get_integers(Instance *inst, const char *function, const unsigned 
 
 /* ---------------------------------------------------------------- setters */
 
-/* May a variable of this causality be set in the instance's current phase? */
+/* May a variable of this causality be set in the instance's current phase? Inputs from
+ * instantiation on: FMI 2.0 and 3.0 let an importer set every variable that has a start
+ * value before initialization, inputs included (fmpy's start_values, an SSV value on an
+ * input), and the value set there is the one initialization computes with. Every input of
+ * these FMUs is continuous, so no phase after it is closed to them either. */
 static bool settable(const Instance *inst, Causality causality) {
     const FmuPhase phase = inst->s.phase;
     if (causality == CAUSALITY_PARAMETER) return phase & (FMU_INSTANTIATED | FMU_INITIALIZATION);
     if (causality == CAUSALITY_INPUT)
-        return phase & (FMU_INITIALIZATION | FMU_STEP_COMPLETE | FMU_EVENT_MODE | FMU_CONTINUOUS_MODE);
+        return phase & (FMU_INSTANTIATED | FMU_INITIALIZATION | FMU_STEP_COMPLETE | FMU_EVENT_MODE |
+                        FMU_CONTINUOUS_MODE);
     return false;
 }
 
@@ -209,6 +214,11 @@ static bool in_range(const RealInfo *info, double value) {
     if (info->has_high && value > info->high) return false;
     return true;
 }
+
+/* Whether a variable the importer sets (a parameter or an input) may hold this value: finite
+ * and inside its physical range. The setters and the check of a restored state ask this one
+ * question, so a state holds only what a setter could have put there, in any phase. */
+static bool settable_value(const RealInfo *info, double value) { return isfinite(value) && in_range(info, value); }
 
 bool instance_set_reals(Instance *inst, const char *function, const unsigned vr[], size_t nvr, const double value[]) {
     for (size_t k = 0; k < nvr; k++) {
@@ -372,8 +382,10 @@ bool instance_serialize(Instance *inst, const char *function, const DynamicState
 /* Whether a state read from bytes is one this FMU could have saved: the right GUID alone
  * does not make the bytes safe (a file edited or damaged after serializing), and the
  * values below index arrays or bound loops. The time, the interpolation orders, the
- * outputs' status, every parameter's physical range and the model's own parameter check
- * (e.g. the Controller's delay, an index into its delay line). */
+ * outputs' status, every parameter and input as a setter would take it (finite, inside its
+ * physical range: an input may be set from instantiation on, so a state of any phase holds
+ * one) and the model's own parameter check (e.g. the Controller's delay, an index into its
+ * delay line). */
 static bool state_consistent(Instance *inst, const DynamicState *s, char *why, size_t size) {
     if (!isfinite(s->time)) {
         snprintf(why, size, "time %g", s->time);
@@ -389,8 +401,11 @@ static bool state_consistent(Instance *inst, const DynamicState *s, char *why, s
             snprintf(why, size, "input derivative order %d of %s", s->uder_order[vr], info->name);
             return false;
         }
-        if (info->causality == CAUSALITY_PARAMETER && !(isfinite(s->r[vr]) && in_range(info, s->r[vr]))) {
-            snprintf(why, size, "%s = %g is outside its physical range", info->name, s->r[vr]);
+        const bool input = info->causality == CAUSALITY_INPUT;  /* u_base: where its interpolation starts */
+        if ((input || info->causality == CAUSALITY_PARAMETER) &&
+            !(settable_value(info, s->r[vr]) && (!input || isfinite(s->u_base[vr])))) {
+            snprintf(why, size, "%s %s = %g is not finite or outside its physical range",
+                     causality_name(info->causality), info->name, s->r[vr]);
             return false;
         }
     }
