@@ -321,7 +321,7 @@ def fitting(quick: bool) -> None:
         write_experiments(folder, seed=1)
         start = {"T_i": 0.6e-3, "dIdt_max": 1800.0}
         naive, calls, values = best_of(naive_current_fit, folder / "current-steps.csv", start)
-        ours, result = best_of(timed, fit, "current", [folder / "current-steps.csv"], start,
+        ours, result = best_of(timed, fit, "current", [folder / "current-steps.csv"], start, harmonic="off",
                                global_search=GlobalOptions(enabled=False), progress=False, uncertainty="jacobian")
         print(f"current stage, local fit from the same start, best of {REPEATS}:")
         print(f"  naive (simulate_fmu in least_squares): {naive:6.3f} s, {calls} simulations")

@@ -59,7 +59,7 @@ def fit_current_step(trace: kord.ScopeTrace, step: kord.StepEstimate, uncertaint
     T_i (0.3 ms), not the published L/R; the global search is off because one time
     constant in a one-decade box is a convex-looking 1-D problem for the local search."""
     return fit("current", [kord.current_step_recording(trace, step)], {"dIdt_max": kord.NEVER_BINDING_SLOPE},
-               fix=["dIdt_max"], global_search=GlobalOptions(enabled=False), progress=False,
+               fix=["dIdt_max"], harmonic="off", global_search=GlobalOptions(enabled=False), progress=False,
                uncertainty=uncertainty)
 
 

@@ -93,7 +93,7 @@ def monte_carlo(cart_recording):
         offset = rng.uniform(-0.5, 0.5) * resolution
         x = resolution * np.round((exact + offset) / resolution) - offset
         replica = replace(recording, signals={**recording.signals, "x": x})
-        result = fit("cart", [replica], CART_TRUTH, seed=k, global_search=GlobalOptions(enabled=False),
+        result = fit("cart", [replica], CART_TRUTH, global_search=GlobalOptions(enabled=False),
                      progress=False, uncertainty="jacobian")
         estimates.append([result.parameters[n] for n in ("eta", "k_fwc", "F_Kc")])
     return np.array(estimates), replica
@@ -105,9 +105,9 @@ def test_bootstrap_spread_matches_the_estimators_own(monte_carlo):
     grid's random offset, or one whose refits did not move, gives a ratio near 0."""
     estimates, replica = monte_carlo
     spread = np.std(estimates, axis=0, ddof=1)
-    booted = fit("cart", [replica], CART_TRUTH, seed=1, global_search=GlobalOptions(enabled=False), progress=False,
+    booted = fit("cart", [replica], CART_TRUTH, global_search=GlobalOptions(enabled=False), progress=False,
                  uncertainty="bootstrap")
-    quick = fit("cart", [replica], CART_TRUTH, seed=1, global_search=GlobalOptions(enabled=False), progress=False,
+    quick = fit("cart", [replica], CART_TRUTH, global_search=GlobalOptions(enabled=False), progress=False,
                 uncertainty="jacobian")
     for k, name in enumerate(("eta", "k_fwc", "F_Kc")):
         ratio = booted.estimates[name].stderr / spread[k]

@@ -129,7 +129,7 @@ def test_a_sidecar_mass_applies_to_a_centre_of_mass_inertia_from_the_parameters(
 def test_a_fit_given_j_cm_equals_one_given_the_converted_j_p(decay):
     """J_cm in the params and in a sidecar gives the fit that the converted J_p gives."""
     def run(params):
-        return fit("pendulum", [decay], params, seed=1, global_search=GlobalOptions(enabled=False),
+        return fit("pendulum", [decay], params, global_search=GlobalOptions(enabled=False),
                    progress=False, uncertainty="jacobian")
 
     by_centre = run({"J_cm": 0.004, **ROD})

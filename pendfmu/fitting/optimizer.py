@@ -184,21 +184,34 @@ def global_search(coarse: Residuals, n: int, seed: int, options: GlobalOptions,
 
 
 LOCAL_BUDGET = 30  # least-squares iterations per (free parameter + 1); each also runs n Jacobian columns
+LOCAL_ROUNDS = 4  # a refinement that used up its budget while still descending goes on, from where it stopped
+STILL_DESCENDING = 1e-6  # a round that lowered the cost by more than this fraction was still descending
 
 
 def local_search(residuals: Residuals, u0: np.ndarray, threads: int = 1
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
     """Trust-region least squares; returns (u, Jacobian, residual, a note if it did not
     converge). `threads` > 1 computes the finite-difference Jacobian's columns on that many
-    threads (Residuals.jacobian_map): the same numbers, sooner."""
+    threads (Residuals.jacobian_map): the same numbers, sooner. A refinement that stops at
+    its budget while its cost still falls is not an answer: it goes on from where it stopped,
+    for up to LOCAL_ROUNDS budgets (a converged one is untouched by this, to the bit)."""
+    budget = LOCAL_BUDGET * (len(u0) + 1)
+
+    def refine(u: np.ndarray):
+        return least_squares(residuals, u, bounds=(0.0, 1.0), method="trf", diff_step=1e-7, x_scale=1.0,
+                             xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=budget,
+                             workers=residuals.jacobian_map(threads))
+
     with threadpool_limits(1, user_api="blas"):
-        result = least_squares(residuals, u0, bounds=(0.0, 1.0), method="trf", diff_step=1e-7, x_scale=1.0,
-                               xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=LOCAL_BUDGET * (len(u0) + 1),
-                               workers=residuals.jacobian_map(threads))
+        result, rounds = refine(u0), 1
+        before = 0.5 * float(np.sum(np.square(residuals(u0)))) if result.status == 0 else 0.0
+        while result.status == 0 and rounds < LOCAL_ROUNDS and result.cost < (1.0 - STILL_DESCENDING) * before:
+            before = float(result.cost)
+            result, rounds = refine(result.x), rounds + 1
     note = None
     if result.status == 0:
-        note = (f"the local refinement stopped at its budget of {LOCAL_BUDGET * (len(u0) + 1)} iterations "
-                f"before converging: the estimates may still move")
+        note = (f"the local refinement stopped at its budget of {rounds} x {budget} iterations before converging: "
+                f"the estimates may still move")
     return result.x, result.jac, result.fun, note
 
 
