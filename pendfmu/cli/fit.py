@@ -173,6 +173,8 @@ def run(args: argparse.Namespace) -> int:
               f"(checkpoint {path})")
         return 130
     result.provenance = with_command(result.provenance, getattr(args, "command_line", None))
+    if model is not None:  # the file, which the loaded Model does not carry: `pendfmu export` exports for it
+        result.model = str(args.fmu or args.system)
     if not result.estimates:  # the library evaluates the cost at fixed values; a command that fits nothing is a slip
         raise UsageError(f"--fix {' '.join(args.fix)} leaves nothing to fit (and no recording estimates its own "
                          f"values); nothing written to {args.out}")

@@ -5,7 +5,9 @@ Writes into one folder:
 - for each FMU of the model, ``<Instance>.fmu``: a copy of it whose modelDescription.xml
   carries the fitted values as the parameters' start values (and says so in its
   description); every other member, the binaries included, byte for byte. The GUID is
-  kept: a binary pendfmu did not build checks it at fmi2Instantiate;
+  kept: a binary pendfmu did not build checks it at fmi2Instantiate. One of pendfmu's own
+  components in a user's system gets what ``pendfmu export`` writes instead (fresh GUID,
+  start file): its binary computes with the values the copy declares;
 - ``parameters.ssv``: SSP 1.0 parameter values of every parameter, named
   ``Instance.parameter`` (validated against the SSV schema);
 - ``set_parameters.m`` and ``parameters.mat``: the same values for Simulink's FMU Import
@@ -49,12 +51,29 @@ def export_model(model: Model, values: Mapping[str, float], out_dir: str | Path,
     for name, instance in model.instances.items():
         if instance.fmu is None:
             continue  # pendfmu's own components: pendfmu export writes those
-        paths.append(_parameterized_copy(Path(instance.fmu), per[name], out_dir / f"{name}.fmu", source))
+        paths.append(_copy_with_values(model, name, Path(instance.fmu), per[name], out_dir / f"{name}.fmu", source))
         blocks.append(block_values(name, paths[-1], per[name], given[name], source))
     entries = {f"{name}.{parameter}": ParameterValue(float(value), None, "Real")
                for name, parameters in per.items() for parameter, value in sorted(parameters.items())}
     paths.append(write_ssv(ParameterSet("fitted", entries), out_dir / SSV_FILE))
     return paths + write_simulink_files(blocks, out_dir, source)
+
+
+def _copy_with_values(model: Model, name: str, fmu: Path, values: Mapping[str, float], target: Path,
+                      source: str) -> Path:
+    """The FMU of instance `name` with `values` as start values. One of pendfmu's components
+    (in an SSP system, say) gets a parameterized copy as `pendfmu export` writes it: its
+    binary computes with the start file the copy carries, which must say the same values;
+    any other FMU the copy of the module docstring."""
+    from pendfmu.export.fmu import write_parameterized_fmu
+    from pendfmu.simulator.model import Port
+    from pendfmu.ssp.archive import own_component
+
+    kind = own_component(fmu)
+    if kind is None:
+        return _parameterized_copy(fmu, values, target, source)
+    real = {p: v for p, v in values.items() if model.variables[Port(name, p)].type == "Real"}
+    return write_parameterized_fmu(kind, real, target, source)
 
 
 def _parameterized_copy(original: Path, values: Mapping[str, float], target: Path, source: str) -> Path:
