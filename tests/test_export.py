@@ -64,9 +64,23 @@ def test_writes_three_fmus_the_ssv_and_the_modelica_text(exported):
     out, paths = exported
     assert [p.relative_to(out).as_posix() for p in paths] == [
         "CurrentLoop.fmu", "Cart.fmu", "Pendulum.fmu", "parameters.ssv", "modifiers.mo", "set_parameters.m",
-        "parameters.mat", "fmi3/CurrentLoop.fmu", "fmi3/Cart.fmu", "fmi3/Pendulum.fmu"]
+        "parameters.mat", "fmi3/CurrentLoop.fmu", "fmi3/Cart.fmu", "fmi3/Pendulum.fmu", "rig.ssp", "rig-flat.ssp"]
     assert all(p.is_file() for p in paths)
     assert not list(out.glob(".*.part"))
+
+
+def test_the_rig_ssps_state_every_exported_value_with_and_without_system_connectors(exported):
+    """rig.ssp and rig-flat.ssp (pendfmu/export/rig.py): every parameter of every component
+    as the FMUs declare it; the flat one without the system's own connectors, same wiring."""
+    from pendfmu.ssp import read_ssp
+
+    out, _ = exported
+    full, flat = read_ssp(out / "rig.ssp"), read_ssp(out / "rig-flat.ssp")
+    for system in (full, flat):
+        assert {name: {p: v.value for p, v in values.items()} for name, values in system.parameters.items()} \
+            == {name: expected_starts(name) for name in COMPONENTS}
+    assert [c.name for c in full.connectors][:1] == ["I_c"] and flat.connectors == ()
+    assert flat.component_connections() == full.component_connections()
 
 
 @pytest.mark.parametrize("name", sorted(COMPONENTS))

@@ -181,10 +181,11 @@ def test_an_asymmetry_box_is_cut_to_its_mean(cart_recording):
 
 
 def test_a_user_models_box_is_cut_to_the_rules_and_its_declared_range(decay):
-    from pendfmu.fitting.models import initial_map, load_model, model_experiments, model_free_parameters, read_for
+    from pendfmu.fitting.models import initial_map, model_experiments, model_free_parameters, read_for
+    from pendfmu.simulator.model import Model
     from pendfmu.fmubuild import ensure_fmu
 
-    model = load_model(ensure_fmu("Pendulum"))
+    model = Model.load(ensure_fmu("Pendulum"))
     initial = initial_map(model, None)
     experiments = model_experiments(model, read_for(model, [decay], None, None, initial), model.defaults(), None,
                                     None, initial)

@@ -277,7 +277,7 @@ def test_report_of_a_real_current_fit(tmp_path):
     started = time.perf_counter()
     write_experiments(tmp_path / "rig", seed=3, experiments=SHORT_CURRENT)
     fitted = fit("current", [tmp_path / "rig" / "current.csv"], seed=1, progress=False)
-    index = fitted.write_report(tmp_path / "report")
+    index = write_report(fitted, tmp_path / "report")
     assert time.perf_counter() - started < 20
     text = index.read_text(encoding="utf-8")
     page = Page(text)

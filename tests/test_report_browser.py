@@ -22,6 +22,7 @@ import pytest
 
 from pendfmu.fitting.identification import fit
 from pendfmu.fitting.optimizer import GlobalOptions
+from pendfmu.report import write_report
 from pendfmu.virtual_rig import standard_experiments, write_experiments
 
 BROWSER = next((found for name in ("chromium", "chromium-browser", "google-chrome")
@@ -83,7 +84,7 @@ def report(tmp_path_factory):
     write_experiments(folder / "rig", seed=5, experiments=chosen)
     fitted = fit("cart", sorted((folder / "rig").glob("cart*.csv")), seed=1, progress=False,
                  global_search=GlobalOptions(enabled=False), uncertainty="jacobian")
-    return fitted, fitted.write_report(folder / "report"), folder
+    return fitted, write_report(fitted, folder / "report"), folder
 
 
 def test_the_console_check_sees_an_error(tmp_path):

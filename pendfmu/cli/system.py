@@ -5,10 +5,13 @@
 
 A component is NAME (one of pendfmu's components: CurrentLoop, Cart, Pendulum,
 Controller) or NAME=FILE.fmu (any FMI 2.0 FMU). Parameters come from --params
-({"parameters": {"Controller.K_p": ..., "m_c": ...}}) and --set NAME=VALUE; a bare name
-sets the one component that has it. The system then runs with `pendfmu simulate
---system` and fits with `pendfmu fit --system` (e.g. a closed-loop recording through
-its controller).
+({"parameters": {"Controller.K_p": ..., "m_c": ...}}, or the result file of a fit, whose
+"parameters" are the values it ran with) and --set NAME=VALUE; a bare name sets the one
+component that has it, or every one of pendfmu's components that has it (m_p and l of Cart
+and Pendulum). A value of a pendfmu component the system does not hold, or of the
+recordings (x_offset), is left out with a note (pendfmu/ssp/compose.py). The system then
+runs with `pendfmu simulate --system` and fits with `pendfmu fit --system` (e.g. a
+closed-loop recording through its controller).
 
 Every component input no connection feeds becomes an input of the system (fmpy's
 simulate_ssp needs that); --no-system-connectors leaves them out for ecos and libcosim."""
@@ -26,7 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a pendfmu component by name, or NAME=FILE.fmu")
     parser.add_argument("--connect", nargs="+", action="extend", default=[], metavar="A.output=B.input",
                         help="connections, output to input")
-    parser.add_argument("--params", help='parameter values {"parameters": {"Component.name": value, ...}}')
+    parser.add_argument("--params", help='parameter values {"parameters": {"Component.name": value, ...}}, or the '
+                                         'result file of a fit (pendfmu fit ... --out R.json)')
     parser.add_argument("--set", nargs="+", action="extend", default=[], metavar="NAME=VALUE",
                         help="parameter values (after --params)")
     parser.add_argument("--step", type=float, help="the system's communication step [s] (an annotation)")
@@ -37,11 +41,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import json
-    from pathlib import Path
+    import sys
 
     from pendfmu.cli.outputs import check_output_file
     from pendfmu.errors import UsageError
+    from pendfmu.parameters import read_parameters
     from pendfmu.ssp import write_ssp
     from pendfmu.ssp.compose import compose
 
@@ -54,15 +58,9 @@ def run(args: argparse.Namespace) -> int:
         if name in components:
             raise UsageError(f"--component {name} appears twice")
         components[name] = source or name
-    values: dict[str, float] = {}
-    if args.params:
-        try:
-            document = json.loads(Path(args.params).read_text())
-        except (OSError, json.JSONDecodeError) as error:
-            raise UsageError(f"--params {args.params}: {error}") from None
-        if not isinstance(document, dict) or not isinstance(document.get("parameters"), dict):
-            raise UsageError(f'--params {args.params}: expected {{"parameters": {{"name": value, ...}}}}')
-        values.update(document["parameters"])
+    values: dict[str, object] = {}
+    if args.params:  # a parameters file, or a result file of `pendfmu fit` (its "parameters")
+        values.update(read_parameters(args.params, lambda given, where: dict(given)))
     for item in args.set:
         key, equals, text = item.partition("=")
         try:
@@ -71,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
             values[key] = None
         if values[key] is None:
             raise UsageError(f"--set {item!r}: expected NAME=NUMBER")
-    system = compose(components, args.connect, values, name=args.name, step_size=args.step)
+    system = compose(components, args.connect, values, name=args.name, step_size=args.step,
+                     warn=lambda message: print(f"note: {message}", file=sys.stderr))
     print(write_ssp(system, out, system_connectors=not args.no_system_connectors))
     return 0

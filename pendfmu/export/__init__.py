@@ -12,7 +12,9 @@
   library (:mod:`pendfmu.export.modelica`);
 - ``set_parameters.m`` and ``parameters.mat``: the values for Simulink's FMU Import blocks,
   a MATLAB function that sets them on the blocks (checking each block loads the exported
-  FMU) and the same values as MATLAB structs (:mod:`pendfmu.export.simulink`).
+  FMU) and the same values as MATLAB structs (:mod:`pendfmu.export.simulink`);
+- ``rig.ssp`` and ``rig-flat.ssp`` when the export holds the whole rig: the rig as SSP
+  archives, with and without the system's own connectors (:mod:`pendfmu.export.rig`).
 
 Which components are exported and which values each receives is decided first, by
 :func:`plan_export` (:mod:`pendfmu.export.plan`), so a bad value stops the export before
@@ -28,6 +30,7 @@ from pendfmu.errors import UsageError
 from pendfmu.export.fmu import START_FILE, write_parameterized_fmu
 from pendfmu.export.modelica import write_modifiers
 from pendfmu.export.plan import ExportPlan, plan_export
+from pendfmu.export.rig import write_rig_ssps
 from pendfmu.export.simulink import block_values, write_simulink_files
 from pendfmu.export.ssv import write_parameter_values
 
@@ -54,6 +57,8 @@ def write_export(plan: ExportPlan, out_dir: str | Path) -> list[Path]:
     paths += write_simulink_files(blocks, out_dir, plan.source)
     paths += [write_parameterized_fmu(name, given, out_dir / "fmi3" / f"{name}.fmu", plan.source, fmi_version=3)
               for name, given in plan.components.items()]
+    if plan.holds_the_rig:
+        paths += write_rig_ssps(plan, out_dir)
     return paths
 
 

@@ -5,7 +5,9 @@ Writes into one folder:
 - for each FMU of the model, ``<Instance>.fmu``: a copy of it whose modelDescription.xml
   carries the fitted values as the parameters' start values (and says so in its
   description); every other member, the binaries included, byte for byte. The GUID is
-  kept: a binary pendfmu did not build checks it at fmi2Instantiate;
+  kept: a binary pendfmu did not build checks it at fmi2Instantiate. A copy of a
+  parameterized copy pendfmu wrote (one of pendfmu's components packed in a pendfmu SSP)
+  gets its start file written anew too: its binary computes with the values it declares;
 - ``parameters.ssv``: SSP 1.0 parameter values of every parameter, named
   ``Instance.parameter`` (validated against the SSV schema);
 - ``set_parameters.m`` and ``parameters.mat``: the same values for Simulink's FMU Import
@@ -27,7 +29,7 @@ import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 
-from pendfmu.export.fmu import MODEL_DESCRIPTION, _copy_info, _now, _parse
+from pendfmu.export.fmu import MODEL_DESCRIPTION, START_FILE, _copy_info, _now, _parse, start_file_text
 from pendfmu.simulator.model import Model
 from pendfmu.ssp import ParameterSet, ParameterValue, write_ssv
 
@@ -58,13 +60,20 @@ def export_model(model: Model, values: Mapping[str, float], out_dir: str | Path,
 
 
 def _parameterized_copy(original: Path, values: Mapping[str, float], target: Path, source: str) -> Path:
+    """`original` with `values` as start values in its model description. A parameterized copy
+    pendfmu wrote (the FMUs packed in a pendfmu SSP) carries a start file its binary computes
+    with: it is written anew from the new description, so the binary computes with the values
+    the copy declares, not the ones it was packed with."""
     partial = target.with_name(f".{target.name}.{os.getpid()}.part")
     try:
         with zipfile.ZipFile(original) as src, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as dst:
+            description = _with_start_values(src.read(MODEL_DESCRIPTION), values, source)
             for info in src.infolist():
                 data = src.read(info)
                 if info.filename == MODEL_DESCRIPTION:
-                    data = _with_start_values(data, values, source)
+                    data = description
+                elif info.filename == START_FILE:
+                    data = start_file_text(description).encode()
                 dst.writestr(_copy_info(info), data)
         os.replace(partial, target)
     finally:

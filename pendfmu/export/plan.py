@@ -23,6 +23,7 @@ from pendfmu.components import COMPONENTS, Component
 from pendfmu.parameters import ParameterFileError, check_parameters, parameter_owners
 from pendfmu.physics import settled
 from pendfmu.ranges import outside
+from pendfmu.ssp.rig import RIG_COMPONENTS
 
 
 @dataclass
@@ -49,6 +50,11 @@ class ExportPlan:
         """
         given = self.components[name]
         return {p: given.get(p, float(v.start)) for p, v in COMPONENTS[name].parameters.items()}
+
+    @property
+    def holds_the_rig(self) -> bool:
+        """Whether every component of the rig is exported: then so is the rig as SSP files."""
+        return all(name in self.components for name in RIG_COMPONENTS)
 
 
 def refusal(component: Component, name: str, value: float) -> str | None:
@@ -105,7 +111,12 @@ def plan_export(parameters: Mapping[str, object], components: Iterable[str] | No
     if not plan.components:
         raise ParameterFileError("nothing to export: no component was selected")
     for p in given:
-        if not any(p in COMPONENTS[c].parameters for c in plan.components):
+        if not parameter_owners(p):
+            plan.notes.append(f"{p} is not exported: a parameter of the recordings, not of a component")
+        elif not any(p in COMPONENTS[c].parameters for c in plan.components):
             owners = ", ".join(parameter_owners(p))
             plan.notes.append(f"{p} is not exported: its component ({owners}) is not exported")
+    if not plan.holds_the_rig:
+        plan.notes.append(f"the rig is not exported as SSP files: they need {', '.join(RIG_COMPONENTS)}, and this "
+                          f"export holds {', '.join(plan.components)}")
     return plan

@@ -67,16 +67,18 @@ def checked_values(model: Model, values: Mapping[str, object], where: str = "") 
 
 
 def without_aliases(model: Model, values: Mapping[str, float], names: Sequence[str]) -> dict[str, float]:
-    """`values` without the keys that set the same parameter as one of `names` under
-    another name ("m_c" when the user wrote "Cart.m_c"): one port, one key, so the result
-    file says each value once and no order decides which of two spellings wins."""
-    taken = set()
+    """`values` with each key that sets the same parameter as one of `names` under another
+    name ("k_u" when the user wrote "Cart.k_u") moved to that name: one port, one key, so
+    the result file says each value once and no order decides which of two spellings wins,
+    and the value (an SSP's binding, a start value) stays the known value and the start of
+    the fitted one, whose search box is built around it."""
+    taken: dict[frozenset, str] = {}
     for name in names:
         try:
-            taken.add(frozenset(model.resolve(name, "parameter")))
+            taken.setdefault(frozenset(model.resolve(name, "parameter")), name)
         except ModelError:
             continue  # a measurement parameter, or checked later with its own message
-    kept = {}
+    kept: dict[str, float] = {}
     for key, value in values.items():
         try:
             ports = frozenset(model.resolve(key, "parameter"))
@@ -84,6 +86,8 @@ def without_aliases(model: Model, values: Mapping[str, float], names: Sequence[s
             ports = None
         if ports is None or ports not in taken or key in names:
             kept[key] = value
+        else:
+            kept.setdefault(taken[ports], value)
     return kept
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from pendfmu.errors import BadInput
@@ -167,9 +167,7 @@ class Model:
             for variable, given in values.items():
                 port = Port(name, variable)
                 if port in model.variables and isinstance(given.value, (int, float)):
-                    declared = model.variables[port]
-                    model.variables[port] = Variable(port, declared.causality, float(given.value), declared.low,
-                                                     declared.high, declared.unit)
+                    model.variables[port] = replace(model.variables[port], start=float(given.value))
         return model
 
     @classmethod

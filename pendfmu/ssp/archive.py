@@ -36,7 +36,7 @@ def _member_name(system: System, source: str) -> str:
     return str(path)
 
 
-def _own_component(fmu: Path) -> str | None:
+def own_component(fmu: Path) -> str | None:
     """The name of pendfmu's component whose build (or parameterized copy) `fmu` is, else None:
     only those binaries read the start file a parameterized copy carries."""
     from fmpy import read_model_description
@@ -74,7 +74,7 @@ def _pack_fmu(system: System, users: list[FmuComponent], target: Path) -> None:
     from pendfmu.export.fmu import write_parameterized_fmu
 
     fmu = Path(users[0].fmu)
-    kind = _own_component(fmu)
+    kind = own_component(fmu)
     values = [_start_values(system, component) for component in users]
     if kind is None or any(v != values[0] for v in values[1:]):
         shutil.copyfile(fmu, target)

@@ -9,8 +9,15 @@ a drive FMU from another tool, is composed here:
             {"Controller.K_p": 3.9e4, "Cart.m_c": 95.1})
 
 A component is a pendfmu component name (built on demand) or an FMU file. A parameter
-is written "Component.name", or bare where one component has it (a name several have
-must be qualified). Every parameter of every component is written, as the rig does, so
+is written "Component.name", or bare: it then sets the one component that has it, or
+every one of pendfmu's components that has it (their names are physical quantities: m_p
+and l are one mass and one length for Cart and Pendulum, MODEL.md); a bare name a user's
+FMU shares with another component must be qualified. Values for what the system does not
+hold are left out and said (`warn`), so that one parameters or result file of the rig
+serves any system of its components: a parameter of one of pendfmu's components the
+system lacks (T_i in a loop of Controller and Cart), and a measurement parameter (x_offset:
+the recordings', pendfmu/recording/measurement.py). Any other name no component has is
+an error naming it. Every parameter of every component is written, as the rig does, so
 the SSP states the whole system whatever FMU build it is later combined with.
 
 Every component input no connection feeds becomes an input of the system (an SSP system
@@ -24,13 +31,14 @@ them by Component.variable.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from pendfmu.components import ALL_COMPONENTS
 from pendfmu.errors import BadInput
 from pendfmu.physics import J_CM, overlay, settled
-from pendfmu.ssp.fmu import describe_fmu
+from pendfmu.ssp.fmu import FmuDescription, describe_fmu
+from pendfmu.suggest import did_you_mean
 from pendfmu.ssp.model import Connection, Connector, Experiment, FmuComponent, ParameterValue, System
 
 _KINDS = {"Real": float, "Integer": int, "Boolean": bool}
@@ -53,9 +61,11 @@ def _fmu_of(name: str, source: str | Path) -> Path:
 
 def compose(components: Mapping[str, str | Path], connections: Sequence[str],
             parameters: Mapping[str, float] | None = None, *, name: str = "System",
-            step_size: float | None = None, description: str = "") -> System:
+            step_size: float | None = None, description: str = "",
+            warn: Callable[[str], None] | None = None) -> System:
     """The System of these components (name -> pendfmu component or FMU file), connected
-    "Start.output=End.input", with these parameter values (see the module docstring)."""
+    "Start.output=End.input", with these parameter values (see the module docstring;
+    `warn` hears of the values left out)."""
     fmus = {n: describe_fmu(_fmu_of(n, source)) for n, source in components.items()}
     # An FMU used by several components is packed once per component (resources/<component>.fmu),
     # so that each copy can carry its component's values (archive.py).
@@ -81,20 +91,7 @@ def compose(components: Mapping[str, str | Path], connections: Sequence[str],
                 names = [c for c, k in declared.items() if k == kind]
                 raise BadInput(f"connection {text!r}: {element} has no {kind} {connector!r} ({', '.join(names)})")
         wires.append(wire)
-    values = {n: dict(d.starts) for n, d in fmus.items()}
-    given: dict[str, dict[str, float]] = {n: {} for n in fmus}
-    for key, value in (parameters or {}).items():
-        centre_of_mass = key.rpartition(".")[2] == J_CM  # written as J_p (_physical)
-        component, parameter = _target(key[:-len(J_CM)] + "J_p" if centre_of_mass else key, fmus)
-        declared = next(c for c in fmus[component].connectors if c.name == parameter)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise BadInput(f"parameter {key} = {value!r}: not a finite number")
-        if declared.type == "Integer" and float(value) != int(value):
-            raise BadInput(f"parameter {key} = {value!r}: an Integer")
-        given[component][J_CM if centre_of_mass else parameter] = float(value)
-        if not centre_of_mass:
-            values[component][parameter] = ParameterValue(_KINDS[declared.type](value), declared.unit, declared.type)
-    _physical(components, given, values)
+    values = _values(components, fmus, parameters or {}, warn)
     used = {c.unit for d in fmus.values() for c in d.connectors if c.unit}
     units = {u: d.units[u] for d in fmus.values() for u in sorted(used) if u in d.units}
     connectors, boundary = free_inputs(parts, wires)
@@ -140,17 +137,80 @@ def free_inputs(parts: Mapping[str, FmuComponent], wires: Sequence[Connection], 
     return tuple(connectors), boundary
 
 
-def _target(key: str, fmus) -> tuple[str, str]:
+def _values(components: Mapping[str, str | Path], fmus: Mapping[str, FmuDescription],
+            parameters: Mapping[str, float], warn: Callable[[str], None] | None) -> dict[str, dict[str, ParameterValue]]:
+    """Every parameter of every component: its FMU's start value unless `parameters` set it
+    (module docstring for the names), a J_cm as J_p, and pendfmu's components checked against
+    the rules between their parameters (_physical)."""
+    from pendfmu.ssp.archive import own_component
+
+    values = {n: dict(d.starts) for n, d in fmus.items()}
+    given: dict[str, dict[str, float]] = {n: {} for n in fmus}
+    own = {n for n, d in fmus.items() if own_component(d.path)}
+    left_out = []
+    for key, value in parameters.items():
+        centre_of_mass = key.rpartition(".")[2] == J_CM  # written as J_p (_physical)
+        targets = _targets(key[:-len(J_CM)] + "J_p" if centre_of_mass else key, fmus, own)
+        if not targets:
+            left_out.append(key)
+        for component, parameter in targets:
+            checked = _checked(key, value, fmus[component], parameter)
+            given[component][J_CM if centre_of_mass else parameter] = float(checked.value)
+            if not centre_of_mass:
+                values[component][parameter] = checked
+    if left_out and warn:
+        warn(_left_out(left_out))
+    _physical(components, given, values)
+    return values
+
+
+def _checked(key: str, value: object, fmu: FmuDescription, parameter: str) -> ParameterValue:
+    """`value` as the typed value of `parameter` of `fmu`, or an error naming `key`."""
+    declared = next(c for c in fmu.connectors if c.name == parameter)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise BadInput(f"parameter {key} = {value!r}: not a finite number")
+    if declared.type == "Integer" and float(value) != int(value):
+        raise BadInput(f"parameter {key} = {value!r}: an Integer")
+    return ParameterValue(_KINDS[declared.type](value), declared.unit, declared.type)
+
+
+def _targets(key: str, fmus: Mapping[str, FmuDescription], own: set[str]) -> list[tuple[str, str]]:
+    """The (component, parameter) pairs `key` sets; none for a value the system has no place
+    for (module docstring), an error for a name it cannot place."""
     component, dot, parameter = key.partition(".")
     if dot:
         if component not in fmus:
-            raise BadInput(f"parameter {key}: no component {component!r} ({', '.join(fmus)})")
+            raise BadInput(f"parameter {key}: no component {component!r}{did_you_mean(component, fmus)} "
+                           f"({', '.join(fmus)})")
         if parameter not in fmus[component].starts:
-            raise BadInput(f"parameter {key}: {component} has no parameter {parameter!r} "
-                           f"({', '.join(fmus[component].starts)})")
-        return component, parameter
+            raise BadInput(f"parameter {key}: {component} has no parameter {parameter!r}"
+                           f"{did_you_mean(parameter, fmus[component].starts)} ({', '.join(fmus[component].starts)})")
+        return [(component, parameter)]
     owners = [n for n, d in fmus.items() if key in d.starts]
-    if len(owners) != 1:
-        where = f"{' and '.join(owners)} both have it: write Component.{key}" if owners else "no component has it"
-        raise BadInput(f"parameter {key}: {where}")
-    return owners[0], key
+    if len(owners) == 1 or (owners and set(owners) <= own):
+        return [(n, key) for n in owners]
+    if owners:
+        raise BadInput(f"parameter {key}: {' and '.join(owners)} have it: write Component.{key}")
+    if _elsewhere(key):
+        return []
+    known = {p for d in fmus.values() for p in d.starts}
+    raise BadInput(f"parameter {key}: no component has it{did_you_mean(key, known)}")
+
+
+def _elsewhere(key: str) -> str | None:
+    """Where else a name no component has belongs: the pendfmu component that has it, "the
+    recordings" for a measurement parameter, None for neither (module docstring)."""
+    from pendfmu.components import ALL_COMPONENTS
+    from pendfmu.recording.measurement import measurement_signal
+
+    owner = next((c.name for c in ALL_COMPONENTS.values() if key in c.parameters), None)
+    return owner or ("the recordings" if measurement_signal(key) else None)
+
+
+def _left_out(keys: Sequence[str]) -> str:
+    """The note on values no component of the system has, grouped by where they belong."""
+    groups: dict[str, list[str]] = {}
+    for key in keys:
+        groups.setdefault(_elsewhere(key), []).append(key)
+    parts = [f"{owner}: {', '.join(names)}" for owner, names in groups.items()]
+    return f"left out, as no component of this system has them: {'; '.join(parts)}"
