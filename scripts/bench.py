@@ -312,7 +312,6 @@ def naive_current_fit(path: Path, start: dict[str, float]) -> tuple[float, int, 
 
 def fitting(quick: bool) -> None:
     from pendfmu.fitting.identification import fit
-    from pendfmu.fitting.identification import fit
     from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.virtual_rig import write_experiments
 

@@ -25,13 +25,12 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from pendfmu.errors import BadInput, OptionError
-from pendfmu.fitting.boxes import cut_to_physics
-from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare, through_sensor
+from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare
+from pendfmu.fitting.free import Policy, free_parameters
 from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.recording import Recording, read_recording
 from pendfmu.recording.measurement import default_box, is_measurement, measurement_problem, measurement_signal
 from pendfmu.simulator.model import Model, ModelError
-from pendfmu.suggest import did_you_mean
 
 SEARCH_DECADE = 10.0
 
@@ -158,51 +157,30 @@ def model_free_parameters(model: Model, free: Sequence[str], fix: Sequence[str],
                           bounds: Mapping[str, tuple[float, float]], values: Mapping[str, float],
                           experiments: Sequence[Experiment] = ()) -> list[FreeParameter]:
     """The user's free parameters with their search boxes (module docstring), then each
-    recording's own (initial states with boxes from its data, others as the shared)."""
-    own = [name for e in experiments for name in e.estimated]
-    if not free and not own:
-        raise OptionError("free", f"name the parameters of {model.name} to fit; its "
-                       f"parameters: {', '.join(n for n in model.names('parameter') if '.' not in n)}")
+    recording's own (free.py; the model's rules: model_policy)."""
+    return free_parameters(model_policy(model, values, experiments), experiments, free, fix, bounds, values)
+
+
+def model_policy(model: Model, values: Mapping[str, float], experiments: Sequence[Experiment]) -> Policy:
+    """A user's model's rules for its free parameters: nothing fitted unless named, its own
+    parameter names (and sensor parameters of the recorded columns), and its boxes: bounds,
+    else the declared range, else a decade either side of the start (module docstring)."""
     columns = {c for e in experiments for c in (*e.match.values(), *(c for c, _ in e.setup.drives.values()))}
-    for name in [*free, *fix, *bounds, *own]:
+
+    def check(option: str, name: str) -> None:
         if not is_measurement(name, columns):
             model.resolve(name, "parameter")
-    fitted = [*free, *(n for n in dict.fromkeys(own) if n not in free)]
-    for name in fix:
-        if name not in fitted:
-            raise OptionError("fix", f"{model.name} does not fit {name!r}{did_you_mean(name, fitted)}, so there is "
-                                     f"nothing to keep fixed (it fits {', '.join(fitted)})")
-    valid = [n for n in fitted if n not in fix]
-    unknown = [name for name in bounds if name not in valid]
-    if unknown:
-        raise OptionError("bounds", f"{unknown[0]!r} is not estimated by this fit of {model.name}"
-                                    f"{did_you_mean(unknown[0], valid)}; its free parameters: {', '.join(valid)}")
-    result = []
-    for name in free:
-        if name in fix or name in own:
-            continue
-        result.append(_free(model, name, bounds, values, experiments[:1]))
-    result = _per_recording(model, result, fix, bounds, values, experiments)
-    return cut_to_physics(result, {e.name: {**values, **e.fixed} for e in experiments},
-                          lambda name: _declared(model, name))
 
+    def shared_box(name, names, fix, bounds):
+        box = _free(model, name, bounds, values, experiments[:1])
+        return box.low, box.high, box.log, None
 
-def _per_recording(model: Model, result: list[FreeParameter], fix: Sequence[str],
-                   bounds: Mapping[str, tuple[float, float]], values: Mapping[str, float],
-                   experiments: Sequence[Experiment]) -> list[FreeParameter]:
-    """`result` (the shared free parameters) and each recording's own after them."""
-    shared = {p.name: p for p in result}
-    for experiment in experiments:
-        for name, (_guess, low, high) in experiment.estimated.items():
-            if name in fix:
-                continue
-            if name in bounds or low is None:
-                box = _free(model, name, bounds, {**values, **experiment.fixed}, [experiment])
-                low, high = box.low, box.high
-            else:
-                low, high = through_sensor(experiment, name, low, high, shared)
-            result.append(FreeParameter(name, float(low), float(high), False, experiment.name))
-    return result
+    def own_box(name, bounds, experiment):
+        box = _free(model, name, bounds, {**values, **experiment.fixed}, [experiment])
+        return box.low, box.high, False
+
+    listing = ", ".join(n for n in model.names("parameter") if "." not in n)
+    return Policy(model.name, (), check, shared_box, own_box, lambda name: _declared(model, name), listing)
 
 
 def _free(model: Model, name: str, bounds: Mapping[str, tuple[float, float]], values: Mapping[str, float],

@@ -97,7 +97,7 @@ def model_problem(spec: FitSpec) -> Problem:
     drives = {spec.drive: spec.drive} if isinstance(spec.drive, str) else mapping(spec.drive)
     matches, initials = mapping(spec.match), initial_map(model, spec.initial)
     given = _known(spec.params, lambda values, where="": checked_values(model, values, where))
-    values = without_aliases(model, model.defaults(), [*given, *spec.free, *spec.fix]) | given
+    values = without_aliases(model, model.defaults(), [*given, *spec.free, *spec.fix, *spec.per_recording]) | given
     read = _parts(read_for(model, spec.recordings, drives, matches, initials), spec)
     experiments = model_experiments(model, read, values, drives, matches, initials, spec.interpolation or "hold",
                                     spec.per_recording, spec.start or "estimated")

@@ -27,8 +27,8 @@ import numpy as np
 
 from pendfmu.components import COMPONENTS
 from pendfmu.errors import OptionError
-from pendfmu.fitting.boxes import cut_to_physics
-from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare, through_sensor
+from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare
+from pendfmu.fitting.free import Policy, free_parameters
 from pendfmu.fitting.residuals import FreeParameter
 from pendfmu.parameters import INITIAL_STATE_PARAMETERS, recording_values
 from pendfmu.recording import Recording, RecordingError
@@ -311,9 +311,18 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
                           values: Mapping[str, float], given: Collection[str] | None = None
                           ) -> list[FreeParameter]:
     """The stage's free parameters (its own, `free`, the recordings' own estimates) with
-    their search boxes: --bounds, else DEFAULT_BOUNDS narrowed to a decade either side
-    of a given value, stiction relative to Coulomb friction, a measurement parameter's
-    box from the data (measurement.default_box), an initial state's from its recording.
+    their search boxes (free.py; the stage's rules: stage_policy)."""
+    return free_parameters(stage_policy(stage, experiments, values, given), experiments, free or (), fix, bounds,
+                           values)
+
+
+def stage_policy(stage: str, experiments: Sequence[Experiment], values: Mapping[str, float],
+                 given: Collection[str] | None = None) -> Policy:
+    """A stage's rules for its free parameters: its default free set (for its drives), the
+    names it knows (its component's parameters, its sensors' offset, scale and delay), and
+    its boxes: --bounds, else DEFAULT_BOUNDS narrowed to a decade either side of a given
+    value, stiction relative to Coulomb friction, a measurement parameter's box from the
+    data (measurement.default_box).
 
     `given`: the names whose value the user gave (params, a sidecar). A friction
     parameter not among them has no value of its own (`values` then holds the reference
@@ -323,52 +332,31 @@ def stage_free_parameters(stage: str, experiments: list[Experiment], free: Seque
     component = COMPONENTS[spec.component]
     signals = {column for e in experiments for column in (*e.match.values(), *(c for c, _ in e.setup.drives.values()))}
     drives = {column for experiment in experiments for column, _ in experiment.setup.drives.values()}
-    preset = default_free(stage, sorted(drives))
-    names = list(preset) + [n for n in (free or []) if n not in preset]
-    own = {e.name: e.estimated for e in experiments}
-    per_recording = {name for estimated in own.values() for name in estimated}
-    for option, listed in (("free", names), ("fix", fix), ("per_recording", sorted(per_recording))):
-        for name in listed:
-            if not (name in component.parameters or is_measurement(name, signals)):
-                raise OptionError(option, f"the {stage} stage fits parameters of {spec.component} and the sensors' "
-                                          f"offset, scale and delay (e.g. {spec.fitted[0]}_offset, input_delay); "
-                                          f"{name!r} is not one{did_you_mean(name, component.parameters)} (valid: "
-                                          f"{', '.join(n for n in component.parameters if n != 'solver_step')})")
-    fitted = [*names, *sorted(per_recording - set(names))]
-    for name in fix:
-        if name not in fitted:
-            hint = "; the PWM ripple is fitted where it is found (harmonic 'off' leaves it out)" \
-                if stage == "current" and name in ("a_h", "f_h", "phase_h") else ""
-            raise OptionError("fix", f"the {stage} stage does not fit {name!r}{did_you_mean(name, fitted)}, so "
-                                     f"there is nothing to keep fixed (it fits {', '.join(fitted)}){hint}")
-    names = [n for n in names if n not in per_recording]
-    valid = [n for n in names if n not in fix] + sorted(per_recording - set(fix))
-    for name in bounds:
-        if name not in valid:
-            raise OptionError("bounds", f"{name!r} is not estimated by the {stage} stage{did_you_mean(name, valid)}; "
-                                        f"its free parameters: {', '.join(valid) or 'none'}")
-    result = []
-    for name in names:
-        if name in fix:
-            continue
-        low, high, log, relative_to = _box(name, names, fix, bounds, values, experiments, given)
-        result.append(FreeParameter(name, float(low), float(high), log, relative_to=relative_to))
-    shared = {p.name: p for p in result}
-    for experiment in experiments:
-        for name, (_guess, low, high) in experiment.estimated.items():
-            if name in fix:
-                continue
-            if name in bounds:
-                low, high = bounds[name]
-                log = False
-            elif low is None:
-                own_given = None if given is None else {*given, *experiment.recording.parameters}
-                low, high, log, _ = _box(name, [], fix, {}, {**values, **experiment.fixed}, [experiment], own_given)
-            else:  # an initial state's box from its recording, through the free sensor parameters
-                low, high = through_sensor(experiment, name, low, high, shared)
-                log = False
-            result.append(FreeParameter(name, float(low), float(high), log, experiment.name))
-    return cut_to_physics(result, {e.name: e.fixed for e in experiments}, lambda name: _declared(component, name))
+    listing = ", ".join(n for n in component.parameters if n != "solver_step")
+
+    def check(option: str, name: str) -> None:
+        if not (name in component.parameters or is_measurement(name, signals)):
+            raise OptionError(option, f"the {stage} stage fits parameters of {spec.component} and the sensors' "
+                                      f"offset, scale and delay (e.g. {spec.fitted[0]}_offset, input_delay); "
+                                      f"{name!r} is not one{did_you_mean(name, component.parameters)} (valid: "
+                                      f"{listing})")
+
+    def shared_box(name, names, fix, bounds):
+        return _box(name, names, fix, bounds, values, experiments, given)
+
+    def own_box(name, bounds, experiment):
+        if name in bounds:
+            return (*bounds[name], False)
+        own_given = None if given is None else {*given, *experiment.recording.parameters}
+        low, high, log, _ = _box(name, [], [], {}, {**values, **experiment.fixed}, [experiment], own_given)
+        return low, high, log
+
+    def hint(name: str) -> str:
+        ripple = stage == "current" and name in ("a_h", "f_h", "phase_h")
+        return "; the PWM ripple is fitted where it is found (harmonic 'off' leaves it out)" if ripple else ""
+
+    return Policy(f"the {stage} stage", default_free(stage, sorted(drives)), check, shared_box, own_box,
+                  lambda name: _declared(component, name), listing, hint)
 
 
 def _declared(component, name: str) -> tuple[float | None, float | None]:
