@@ -21,7 +21,7 @@ import numpy as np
 from pendfmu.fitting.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
 from pendfmu.fitting.result import Estimate, estimate_uncertainty, unknown_uncertainty
 from pendfmu.fitting.residuals import Residuals, physical
-from pendfmu.fitting.stiction import JOINTS
+from pendfmu.friction import JOINTS
 
 METHODS = ("bootstrap", "jacobian")
 MIN_REPLICATES = 8  # fewer successful refits than this: no bootstrap interval
