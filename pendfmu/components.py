@@ -146,10 +146,11 @@ def _t_mode():
 
 
 def _friction_extras(joint, *, speed, viscous, coulomb, stiction, names):
-    """A joint's optional friction terms beyond MODEL.md (docs-friction-extras.md): the
-    Stribeck speed and the direction asymmetries of the viscous and Coulomb terms. Each is 0
-    by default, which switches it off: the paper's law stays exact. `speed`, `viscous` and
-    `coulomb` are (name, unit) pairs of the joint's variables; `names` the three new ones."""
+    """A joint's optional friction terms beyond MODEL.md (README, "Friction law extras";
+    pendfmu.friction names each joint's terms): the Stribeck speed and the direction
+    asymmetries of the viscous and Coulomb terms. Each is 0 by default, which switches it
+    off: the paper's law stays exact. `speed`, `viscous` and `coulomb` are (name, unit)
+    pairs of the joint's variables; `names` the three new ones."""
     (w, w_unit), (k, k_unit), (F_K, F_unit) = speed, viscous, coulomb
     v_S, dk, dF = names
     return (

@@ -25,6 +25,7 @@ import numpy as np
 from pendfmu.components import COMPONENTS, back_drivable, rig_defaults
 from pendfmu.console import progress
 from pendfmu.fitting.labels import is_own
+from pendfmu.friction import CART, PENDULUM, STICTION_OF
 from pendfmu.parameters import write_parameters
 from pendfmu.physics import overlay, settled
 from pendfmu.recording import Recording, SignalInfo, quantize, write_recording
@@ -46,11 +47,12 @@ TRUTH_SUBSTEPS = 10
 
 
 # The parameters each stage of the paper identifies: what a drawn truth varies.
+# A joint's MODEL.md friction in the order viscous, Coulomb, stiction: stiction is drawn
+# relative to the Coulomb friction drawn before it.
 STAGE_PARAMETERS = {"current": ("T_i", "dIdt_max", "a_h", "f_h", "phase_h"),
-                    "cart": ("eta", "k_fwc", "F_Kc", "F_Sc"),
-                    "pendulum": ("k_fwp", "T_Kp", "T_Sp")}
+                    "cart": ("eta", *CART.plain),
+                    "pendulum": PENDULUM.plain}
 FACTOR = (0.6, 1.6)  # a drawn parameter's factor on the reference value (log-uniform)
-STICTION = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> its Coulomb friction
 MIN_STICTION_RATIO = 1.2
 RELEASE_ANGLE = 0.6  # rad from hanging: the free decay's release
 
@@ -83,8 +85,8 @@ def draw_truth(seed: int, index: int = 0) -> tuple[dict[str, float], float]:
     reference = reference_truth()
     truth: dict[str, float] = {}
     for name in (n for names in STAGE_PARAMETERS.values() for n in names):
-        if name in STICTION:
-            coulomb = STICTION[name]
+        if name in STICTION_OF:
+            coulomb = STICTION_OF[name]
             ratio_ref = reference[name] / reference[coulomb]
             scale = reference[coulomb] / truth[coulomb]  # the drawn Coulomb's factor, inverted
             low = max(MIN_STICTION_RATIO, FACTOR[0] * ratio_ref * scale)

@@ -25,7 +25,7 @@ Friction (each joint; speed s, active force F):
                stuck:   s = 0, acceleration = 0, the joint holds any |F| <= threshold
                threshold = max(F_S, F_K)   (with F_S < F_K the joint cannot move before
                |F| > F_K: it would decelerate at once and stop again)
-Friction extras (docs-friction-extras.md; all 0 = off, the paper's law above):
+Friction extras (README, "Friction law extras"; all 0 = off, the paper's law above):
                an offset F_O (F_Oc, T_Op) acts beside F: the joint sees F_N = F + F_O,
                in the equation of motion and in the stick test;
                in direction d = mode the viscous coefficient is k_fw + d*dk_fw and the
@@ -119,7 +119,7 @@ DEFAULTS: dict[str, float] = dict(
     k_fwc=30.0, F_Kc=8.0, F_Sc=12.0,
     # pendulum
     J_p=0.0, g=9.81, k_fwp=1e-3, T_Kp=2e-3, T_Sp=4e-3,
-    # friction extras, all off (docs-friction-extras.md)
+    # friction extras, all off (README, "Friction law extras")
     v_Sc=0.0, dk_fwc=0.0, dF_Kc=0.0, F_Oc=0.0,
     w_Sp=0.0, dk_fwp=0.0, dT_Kp=0.0, T_Op=0.0, k_dp=0.0,
     # drives beyond MODEL.md, all off (README, Drives)

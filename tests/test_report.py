@@ -21,9 +21,9 @@ import pytest
 
 from pendfmu.fitting.identification import fit
 from pendfmu.report import write_report
-from pendfmu.report.content import JOINTS
 from pendfmu.report.figures import friction_figure
 from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult
+from pendfmu.friction import PENDULUM
 from pendfmu.virtual_rig import Experiment, steps, write_experiments
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -242,7 +242,7 @@ def test_friction_curve_figures_follow_the_fitted_joints(report):
 
 
 def test_friction_curve_shades_a_bounded_stiction_and_draws_the_spike():
-    figure = friction_figure(pendulum_result(), JOINTS[1])
+    figure = friction_figure(pendulum_result(), PENDULUM)
     axis = figure.axes[0]
     labels = [text.get_text() for text in figure.legends[0].get_texts()]
     assert any(label.startswith("T_Sp bounded only: [0.0015, 0.006]") for label in labels)

@@ -30,6 +30,7 @@ from pendfmu.errors import OptionError
 from pendfmu.fitting.experiment import Experiment, Setup, StartState, prepare
 from pendfmu.fitting.free import Policy, free_parameters
 from pendfmu.fitting.residuals import FreeParameter
+from pendfmu.friction import DERIVED_BOUNDS, FRICTION_BOUNDS, STICTION_OF, STICTION_RATIO, STRIBECK_OF, STRIBECK_RATIO
 from pendfmu.parameters import INITIAL_STATE_PARAMETERS, recording_values
 from pendfmu.recording import Recording, RecordingError
 from pendfmu.recording.measurement import default_box, is_measurement, measurement_signal
@@ -179,14 +180,11 @@ def _choose_drive(recording: Recording, spec: Stage, drive: str | None) -> str:
 DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
     "T_i": (1e-5, 1e-1, True), "dIdt_max": (10.0, 1e6, True),
     "a_h": (0.0, 1.0, False), "f_h": (1.0, 1e5, True), "phase_h": (-math.pi, math.pi, False),
-    "eta": (0.05, 1.0, False), "k_fwc": (1e-2, 1e3, True), "F_Kc": (1e-2, 1e3, True), "F_Sc": (1e-2, 1e3, True),
-    "k_fwp": (1e-7, 1e-1, True), "T_Kp": (1e-7, 1e-1, True), "T_Sp": (1e-7, 1e-1, True),
+    "eta": (0.05, 1.0, False),
     "m_c": (0.05, 100.0, True), "x0": (-1.0, 1.0, False), "v0": (-5.0, 5.0, False),
     "J_p": (1e-6, 10.0, True), "w0": (-20.0, 20.0, False),
-    # The friction law's extras (off at 0, so a decade around the start cannot apply): Stribeck
-    # speeds and air drag over their physical decades. Asymmetries and offsets have a sign and a
-    # size set by the rig: they need --bounds.
-    "v_Sc": (1e-4, 1.0, True), "w_Sp": (1e-4, 10.0, True), "k_dp": (1e-9, 1e-1, True),
+    # The friction terms' boxes, the extras' included, are the joints' (pendfmu.friction).
+    **FRICTION_BOUNDS,
     # Drives (README, Drives). k_u: a motor of k_M/R = 0.01-1 N.m/(V.ohm) on a 1-100 mm pitch
     # gives 0.1 to 6e4 N per volt, a normalized PWM command the same times its full voltage.
     # k_emf = k_M^2 k_D^2 / R: from 1e-2 (a weak motor on a coarse pitch) to 1e5 N.s/m.
@@ -198,31 +196,6 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
 
 SEARCH_DECADE = 10.0  # default search box: the given value divided and multiplied by this
 
-# A friction parameter the user gave no value for: its box from the rig's own scales, not
-# from the reference rig's value (a 20 g pendulum's pivot friction is a hundredth of the
-# paper's 0.2 kg rod's). name -> (scale, low, high): the box is [low, high] times the scale.
-#
-# Pendulum: the torque scale m_p g l (gravity's largest torque) and the viscous scale
-# m_p g l / omega_0 (omega_0 = sqrt(m_p g l / J_p)), for which k_fwp / scale is twice the
-# damping ratio. Coulomb friction or stiction above 0.3 m_p g l holds the pendulum 17 deg
-# from hanging (asin 0.3) and a free decay barely swings; below 1e-4 it takes 2e-4 rad
-# (0.01 deg) off each half swing, below a lab encoder's step over a whole record. A damping
-# ratio from 5e-5 (a swing losing 0.03 % per period) to 0.5 (dead after one period).
-# The reference rig: T_Kp = 3.4e-3, k_fwp = 8.4e-3 times their scales; the Furuta pendulum
-# of examples/realdata: 1.5e-2 and 2.2e-2.
-#
-# Cart: the force scale is the drive's largest force over the recordings, k_M k_D max|I|
-# (the cart stage's drives are the current I or its command I_c; (m_c + m_p) g without
-# one), and the viscous scale that force over the largest speed the recordings show
-# (from x). The cart moved, so its sliding friction is below eta times the drive's force,
-# <= 1 times the scale; a cart accelerated from rest by at most that force never exceeds
-# its terminal speed F / k_fwc, so k_fwc <= F / v_max (2: room for the speed's estimate).
-# Three decades below: friction a thousandth of the drive is not what a lab rig shows.
-# The reference rig's runs (3 A, 1.2 m/s): F_Kc = 0.07, k_fwc = 0.32 of their scales.
-DERIVED_BOUNDS: dict[str, tuple[str, float, float]] = {
-    "T_Kp": ("torque", 1e-4, 0.3), "T_Sp": ("torque", 1e-4, 0.3), "k_fwp": ("rotation", 1e-4, 1.0),
-    "F_Kc": ("force", 1e-3, 1.0), "F_Sc": ("force", 1e-3, 1.0), "k_fwc": ("translation", 1e-3, 2.0),
-}
 SPEED_WINDOW = 0.01  # the largest speed: position differences over 1 % of a recording (>= 10 samples)
 
 
@@ -281,14 +254,6 @@ def derived_box(name: str, values: Mapping[str, float], experiments: Sequence[Ex
     if not (math.isfinite(scale) and scale > 0):
         return None
     return low * scale, high * scale
-STICTION_OF = {"F_Sc": "F_Kc", "T_Sp": "T_Kp"}  # stiction -> the Coulomb friction it is fitted relative to
-STICTION_RATIO = (1.0, 10.0)
-# With a Stribeck speed (free, or given > 0) the stiction is the sliding friction's level at
-# v -> 0, and a level below the Coulomb friction is a curve that rises to it (friction.h):
-# the ratio's box then reaches down a decade too. Without one, stiction below Coulomb
-# friction has no effect, and the box starts at 1.
-STRIBECK_OF = {"F_Sc": "v_Sc", "T_Sp": "w_Sp"}  # stiction -> the Stribeck speed that shapes it
-STRIBECK_RATIO = (0.1, 10.0)
 
 
 def _stribeck(stiction: str, names: Sequence[str], fix: Sequence[str], values: Mapping[str, float]) -> bool:

@@ -32,21 +32,9 @@ import numpy as np
 from pendfmu.errors import FMUError
 from pendfmu.fitting.residuals import Residuals, unit_of
 from pendfmu.fitting.result import Estimate
+from pendfmu.friction import JOINTS, Joint
 
 
-@dataclass(frozen=True)
-class Joint:
-    stage: str
-    stiction: str
-    coulomb: str
-    force: str  # the active force (torque) output
-    speed: str
-    acceleration: str
-    unit: str
-
-
-JOINTS = {"cart": Joint("cart", "F_Sc", "F_Kc", "F_A", "v", "a", "N"),
-          "pendulum": Joint("pendulum", "T_Sp", "T_Kp", "T_A", "w", "alpha", "N.m")}
 HELD_BEFORE_CROSSING = 2  # samples a joint must have been stuck for its breakaway to pin the threshold
 
 
@@ -62,7 +50,7 @@ class Evidence:
 def evidence(simulations: Iterable[Mapping[str, np.ndarray]], joint: Joint) -> Evidence:
     crossings, low, high = 0, 0.0, math.inf
     for simulated in simulations:
-        force = np.abs(simulated[joint.force])
+        force = np.abs(simulated[joint.active])
         speed = simulated[joint.speed]
         moving = (speed != 0) | (simulated[joint.acceleration] != 0)
         stuck = ~moving
@@ -103,7 +91,7 @@ def bound_stiction(stage: str, residuals: Residuals, u: np.ndarray, estimates: d
     joint = JOINTS[stage]
     if joint.stiction not in estimates:
         return []
-    extra = (joint.force, joint.speed, joint.acceleration)
+    extra = (joint.active, joint.speed, joint.acceleration)
     found = evidence(residuals.simulate(u, extra=extra), joint)
     others = []
     for row in replicates if replicates is not None else []:

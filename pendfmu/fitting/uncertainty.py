@@ -22,7 +22,7 @@ from pendfmu.fitting.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
 from pendfmu.fitting.result import Estimate
 from pendfmu.fitting.statistics import estimate_uncertainty, unknown_uncertainty
 from pendfmu.fitting.residuals import Residuals, physical
-from pendfmu.fitting.stiction import JOINTS
+from pendfmu.friction import JOINTS
 
 METHODS = ("bootstrap", "jacobian")
 MIN_REPLICATES = 8  # fewer successful refits than this: no bootstrap interval

@@ -1,8 +1,8 @@
 """What a report says, independent of how it is drawn: units, error measures, joints.
 
 The figures and the HTML page both need the unit of a name, the per-recording error and
-which friction curves a result determines; computing them once here keeps the two views
-of the same numbers from drifting apart.
+which friction curves a result determines (and the points they are drawn through);
+computing them once here keeps the two views of the same numbers from drifting apart.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import numpy as np
 from pendfmu.components import COMPONENTS
 from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult
 from pendfmu.fitting.labels import label, parameter_of
+from pendfmu.friction import JOINTS, Joint, Law
 
 
 def unit(name: str) -> str:
@@ -188,42 +189,51 @@ def ran_with(result: FitResult, name: str) -> str:
     return "; ".join(parts)
 
 
-@dataclass(frozen=True)
-class Joint:
-    """A joint with the friction law of MODEL.md, as the paper's Fig. 1 draws it."""
-
-    name: str
-    viscous: str
-    coulomb: str
-    stiction: str
-    speed: str  # the joint's speed variable, for its unit
-    speed_label: str
-    force_label: str
-
-    @property
-    def parameters(self) -> tuple[str, str, str]:
-        return self.viscous, self.coulomb, self.stiction
-
-
-JOINTS = (
-    Joint("cart", "k_fwc", "F_Kc", "F_Sc", "v", "cart speed v", "friction force F_F"),
-    Joint("pendulum", "k_fwp", "T_Kp", "T_Sp", "w", "angular speed w", "friction torque T_F"),
-)
-
-
 def fitted_joints(result: FitResult) -> list[Joint]:
-    """The joints whose friction the result identified: any of the three fitted.
+    """The joints whose friction the result identified: any term of their law fitted.
 
     Every result carries all rig values in `parameters` (the defaults of stages not run),
     so the estimates, not the parameters, say which curves are the fit's own."""
-    return [joint for joint in JOINTS if any(name in result.estimates for name in joint.parameters)]
+    return [joint for joint in JOINTS.values() if any(name in result.estimates for name in joint.parameters)]
 
 
-def friction_values(result: FitResult, joint: Joint) -> tuple[float, float, float]:
-    """(k_fw, F_K, F_S) of a joint: fitted values first, the values the stage ran with otherwise."""
-    def value(name: str) -> float:
-        if name in result.estimates:
-            return float(result.estimates[name].value)
-        return float(result.parameters.get(name, 0.0))
+def fitted_values(result: FitResult, joint: Joint) -> dict[str, float]:
+    """The joint's law parameters: fitted values first, the values the stage ran with
+    otherwise (a result from before a term existed: the table's default, which is off)."""
+    values = {name: float(result.parameters[name]) for name in joint.parameters if name in result.parameters}
+    values.update({name: float(result.estimates[name].value) for name in joint.parameters if name in result.estimates})
+    return values
 
-    return value(joint.viscous), value(joint.coulomb), value(joint.stiction)
+
+def fitted_law(result: FitResult, joint: Joint) -> Law:
+    """The friction law the result identified for `joint`, every term included."""
+    return joint.law(fitted_values(result, joint))
+
+
+CURVE_POINTS = 200  # per direction, evenly over the speed range
+STRIBECK_POINTS = 60  # per direction, evenly over the first STRIBECK_SPAN Stribeck speeds (the fall from F_S)
+STRIBECK_SPAN = 3.0  # exp(-9): the Stribeck term has fallen to 1e-4 of its start
+NEAR_REST = 1e-6  # the slowest speed drawn, in units of the range: the sliding branch's end at rest
+
+
+def speed_range(law: Law) -> float:
+    """Wide enough that the viscous slope shows next to the Coulomb step: the speed at
+    which viscous friction reaches about 1.5 times the larger of the two thresholds, and
+    at least the Stribeck fall."""
+    threshold = max(law.F_K + abs(law.dF_K), law.F_S, 0.0)
+    k_fw = law.k_fw - abs(law.dk_fw)  # the flatter direction
+    v_max = 1.5 * threshold / k_fw if k_fw > 0 and threshold > 0 else 1.0
+    return max(v_max, STRIBECK_SPAN * law.v_S)
+
+
+def friction_curve(law: Law) -> tuple[np.ndarray, np.ndarray]:
+    """(speeds, forces) of the sliding friction the report draws: backward then forward
+    over the speed range, denser where a Stribeck term falls, from NEAR_REST of the range
+    (a sliding joint never has speed 0: at rest it is stuck) to the range's end."""
+    v_max = speed_range(law)
+    forward = np.linspace(0.0, v_max, CURVE_POINTS + 1)[1:]
+    if law.v_S > 0:
+        forward = np.concatenate([forward, np.linspace(0.0, STRIBECK_SPAN * law.v_S, STRIBECK_POINTS + 1)[1:]])
+    forward = np.unique(np.concatenate([[NEAR_REST * v_max], forward]))
+    speeds = np.concatenate([-forward[::-1], forward])
+    return speeds, law.sliding(speeds)

@@ -9,15 +9,17 @@ saved.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
 from pathlib import Path
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from pendfmu.report.content import Joint, bounded_only, fitted_joints, friction_values, interval_text, unit
 from pendfmu.fitting.result import FitResult
+from pendfmu.friction import Joint, Law
+from pendfmu.report.content import (bounded_only, fitted_joints, fitted_law, fitted_values, friction_curve,
+                                    interval_text, unit)
 
 SIMULATED = "#d62728"
 STICTION = "#1f77b4"
@@ -39,13 +41,29 @@ def write_friction_figures(result: FitResult, directory: Path) -> list[Picture]:
     run (a mail client, a locked-down viewer)."""
     friction = []
     for joint in fitted_joints(result):
-        if not all(math.isfinite(v) for v in friction_values(result, joint)):
+        if not all(math.isfinite(v) for v in astuple(fitted_law(result, joint))):
             continue  # a failed fit's NaN draws no curve; the table shows the values
         file = f"friction-{joint.name}.png"
         _save(friction_figure(result, joint), directory / file)
-        friction.append(Picture(file, f"{joint.name} friction",
-                                f"identified friction law of the {joint.name} ({', '.join(joint.parameters)})"))
+        friction.append(Picture(file, f"{joint.name} friction", friction_caption(result, joint)))
     return friction
+
+
+def shown_terms(result: FitResult, joint: Joint) -> list[str]:
+    """The law's parameters a figure names: MODEL.md's three, and each extra that was
+    fitted or is on (not 0)."""
+    values = fitted_values(result, joint)
+    return [name for name in joint.parameters
+            if name in joint.plain or name in result.estimates or values.get(name, 0.0) != 0.0]
+
+
+def friction_caption(result: FitResult, joint: Joint) -> str:
+    """What the figure shows, and how an offset shows (it changes no friction)."""
+    caption = f"identified friction law of the {joint.name} ({', '.join(shown_terms(result, joint))})"
+    if fitted_law(result, joint).F_O != 0.0:
+        caption += (f"; the offset {joint.offset} is no friction (it adds to the active force {joint.active}): the "
+                    f"dashed curve is the {joint.active} that holds each speed, {joint.friction} − {joint.offset}")
+    return caption
 
 
 def _save(figure: Figure, path: Path) -> None:
@@ -58,44 +76,58 @@ def _axis_label(name: str, unit_: str) -> str:
 
 
 def friction_figure(result: FitResult, joint: Joint) -> Figure:
-    """The friction law of the paper's Fig. 1 with the identified values: the viscous
-    line offset by the Coulomb step for a sliding joint, and at zero speed the vertical
-    stiction segment from -F_S to +F_S (any force within it holds the joint at rest).
-    A stiction interval (95 % interval, or the set a free decay confines it to) is shaded."""
-    k_fw, f_k, f_s = friction_values(result, joint)
-    v_max = _speed_range(k_fw, f_k, f_s)
+    """The friction law of the paper's Fig. 1 with the identified values, every fitted term
+    of friction.h included (content.friction_curve): the sliding friction either way, and
+    at zero speed the vertical stiction segment between the breakaway thresholds (any force
+    within it holds the joint at rest). An offset force does not change the friction: it
+    shows as the dashed drive that holds each speed. A stiction interval (95 % interval,
+    or the set a free decay confines it to) is shaded."""
+    law = fitted_law(result, joint)
+    speeds, forces = friction_curve(law)
+    v_max = float(speeds[-1])
     figure = Figure(figsize=(6.4, 5.0), layout="constrained")
     axis = figure.add_subplot()
-    speed = np.linspace(0.0, v_max, 50)
-    sliding = k_fw * speed + f_k  # forward; backward is its mirror image, the step at 0 joins them
-    axis.plot(np.concatenate([-speed[::-1], speed]), np.concatenate([-sliding[::-1], sliding]), color=SIMULATED,
-              lw=2, label=f"sliding: {joint.viscous}·{joint.speed} + {joint.coulomb}·sgn({joint.speed})")
+    axis.plot(speeds, forces, color=SIMULATED, lw=2, label=_sliding_label(result, joint))
+    drawn = [forces]
+    if law.F_O != 0.0:
+        drawn.append(forces - law.F_O)
+        axis.plot(speeds, drawn[-1], color=SIMULATED, lw=1.2, ls="--",
+                  label=f"{joint.active} holding the speed: {joint.friction} − {joint.offset} "
+                        f"({joint.offset} = {law.F_O:.4g} {joint.unit})")
+    low, high = -float(law.threshold(-1.0)), float(law.threshold(1.0))
     # The curve, not a wide stiction interval, sets the scale; the interval is clipped.
-    limit = 1.15 * max(k_fw * v_max + f_k, f_s, 1e-300)
+    limit = 1.15 * max(*(float(np.max(np.abs(f))) for f in drawn), -low, high, 1e-300)
     _stiction_band(axis, result, joint, v_max, limit)
-    axis.plot([0, 0], [-f_s, f_s], color=STICTION, lw=3.5, solid_capstyle="butt",
-              label=f"stuck ({joint.speed} = 0): |F_F| ≤ {joint.stiction}")
-    axis.plot([0, 0], [-f_s, f_s], "o", color=STICTION, ms=5)
+    axis.plot([0, 0], [low, high], color=STICTION, lw=3.5, solid_capstyle="butt", label=_stuck_label(joint, law))
+    axis.plot([0, 0], [low, high], "o", color=STICTION, ms=5)
     axis.axhline(0.0, color="black", lw=0.6)
     axis.axvline(0.0, color="black", lw=0.6)
-    _annotate(axis, joint, k_fw, f_k, f_s, v_max)
+    _annotate(axis, joint, law, v_max)
     axis.set_xlim(-v_max, v_max)
     axis.set_ylim(-limit, limit)
     axis.set_xlabel(_axis_label(joint.speed_label, unit(joint.speed)))
-    axis.set_ylabel(_axis_label(joint.force_label, unit(joint.coulomb)))
+    axis.set_ylabel(_axis_label(joint.force_label, joint.unit))
     axis.set_title(f"Identified friction of the {joint.name} (cf. the paper's Fig. 1)", fontsize="medium")
     axis.grid(alpha=0.3)
     figure.legend(loc="outside lower center", fontsize="small")
     return figure
 
 
-def _speed_range(k_fw: float, f_k: float, f_s: float) -> float:
-    """Wide enough that the viscous slope shows next to the Coulomb step: the speed at
-    which viscous friction reaches about 1.5 times the larger of the two thresholds."""
-    threshold = max(f_k, f_s, 0.0)
-    if k_fw > 0 and threshold > 0:
-        return 1.5 * threshold / k_fw
-    return 1.0
+def _sliding_label(result: FitResult, joint: Joint) -> str:
+    """MODEL.md's law, and the extras that shape the sliding friction with their values."""
+    values = fitted_values(result, joint)
+    extras = [name for name in shown_terms(result, joint) if name not in (*joint.plain, joint.offset)]
+    label = f"sliding: {joint.viscous}·{joint.speed} + {joint.coulomb}·sgn({joint.speed})"
+    if extras:
+        label += " with " + ", ".join(f"{name} = {values.get(name, 0.0):.4g} {unit(name)}" for name in extras)
+    return label
+
+
+def _stuck_label(joint: Joint, law: Law) -> str:
+    if law.threshold(-1.0) == law.threshold(1.0) == law.F_S:
+        return f"stuck ({joint.speed} = 0): |{joint.friction}| ≤ {joint.stiction}"
+    return (f"stuck ({joint.speed} = 0): {joint.friction} between the breakaway thresholds "
+            f"−{float(law.threshold(-1.0)):.4g} and {float(law.threshold(1.0)):.4g} {joint.unit}")
 
 
 def _stiction_band(axis, result: FitResult, joint: Joint, v_max: float, limit: float) -> None:
@@ -115,16 +147,15 @@ def _stiction_band(axis, result: FitResult, joint: Joint, v_max: float, limit: f
                                 f"{unit(joint.stiction)}{clipped}" if sign > 0 else None)
 
 
-def _annotate(axis, joint: Joint, k_fw: float, f_k: float, f_s: float, v_max: float) -> None:
+def _annotate(axis, joint: Joint, law: Law, v_max: float) -> None:
     """Name the identified values where they show in the curve, each in a region of its
     own: stiction left of the spike's top, Coulomb right of the step below the line, the
     slope above the backward branch, which falls away from the text."""
-    force_unit = unit(joint.coulomb)
-    axis.annotate(f"{joint.stiction} = {f_s:.4g} {force_unit}", (0, f_s), xytext=(-8, 0),
+    axis.annotate(f"{joint.stiction} = {law.F_S:.4g} {joint.unit}", (0, float(law.threshold(1.0))), xytext=(-8, 0),
                   textcoords="offset points", color=STICTION, fontsize="small", ha="right", va="center")
-    axis.annotate(f"{joint.coulomb} = {f_k:.4g} {force_unit}", (0, f_k), xytext=(8, -4),
+    axis.annotate(f"{joint.coulomb} = {law.F_K:.4g} {joint.unit}", (0, float(law.coulomb(1.0))), xytext=(8, -4),
                   textcoords="offset points", color=SIMULATED, fontsize="small", ha="left", va="top")
     left = -0.3 * v_max
-    axis.annotate(f"slope {joint.viscous} = {k_fw:.4g} {unit(joint.viscous)}", (left, k_fw * left - f_k),
+    axis.annotate(f"slope {joint.viscous} = {law.k_fw:.4g} {unit(joint.viscous)}", (left, float(law.sliding(left))),
                   xytext=(-6, 10), textcoords="offset points", color=SIMULATED, fontsize="small",
                   ha="right", va="bottom")

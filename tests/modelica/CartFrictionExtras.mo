@@ -9,7 +9,7 @@ equation
   cart.w = 0;
   cart.alpha = 0;
   annotation (Documentation(info = "<html>
-<p>The Cart class with friction extras (docs-friction-extras.md) under the force
+<p>The Cart class with friction extras (pendfmu's README, section Friction law extras) under the force
 sin(2 pi t / 0.63 s) of the paper's friction test, for tests/test_friction_extras.py to
 compare with the Cart FMU. The extras are set here, not by a simulation override: rumoca
 treats v_Sc, which selects an if-branch, as a structural parameter.</p>

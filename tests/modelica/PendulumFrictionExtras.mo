@@ -5,7 +5,7 @@ model PendulumFrictionExtras "Test bench: the pendulum's free decay from 0.5 rad
 equation
   pendulum.a = 0;
   annotation (Documentation(info = "<html>
-<p>The Pendulum class with friction extras (docs-friction-extras.md): Stribeck speed
+<p>The Pendulum class with friction extras (pendfmu's README, section Friction law extras): Stribeck speed
 w_Sp = 0.3 rad/s, asymmetries dk_fwp = 5e-4 N.m.s and dT_Kp = 5e-4 N.m, offset torque
 T_Op = 0.01 N.m and air drag k_dp = 2e-4 N.m.s2, released at rest 0.5 rad from hanging
 with the pivot still, for tests/test_friction_extras.py to compare with the Pendulum FMU.

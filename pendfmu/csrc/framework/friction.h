@@ -1,7 +1,8 @@
 /* The friction law of MODEL.md, shared by the cart and the pendulum joint: viscous,
  * Coulomb and stiction friction as a hybrid model with three modes,
  *   +1 sliding forward, 0 stuck, -1 sliding backward,
- * with optional extras (docs-friction-extras.md), all off at their default 0:
+ * with optional extras (README, "Friction law extras"; the Python twin of this law and each
+ * joint's parameter names: pendfmu/friction.py), all off at their default 0:
  *
  * While sliding in direction d = mode:
  *     F_F = d (k_fw(d) |v| + F_K(d) + (F_S - F_K(d)) exp(-(v/v_S)^2)) + drag v |v|
