@@ -192,8 +192,8 @@ def test_a_phi0_bound_is_used_and_the_flags_advice_works(tmp_path):
     document = json.loads(out.read_text())
     assert document["initial"]["decay"]["phi0"] == pytest.approx(1.95, abs=1e-6)  # held at the box's edge
     (flag,) = [f for f in document["flags"]["phi0[decay]"] if "bound" in f]
-    assert "--bounds phi0=LOW:HIGH" in flag, flag
-    advice = flag[flag.index("--bounds ") + len("--bounds "):].split(")")[0]
+    assert "widen its bounds (phi0=LOW:HIGH)" in flag, flag  # the option's value, as --bounds or bounds= takes it
+    advice = flag[flag.index("bounds (") + len("bounds ("):].split(")")[0]
     wide = advice.replace("LOW:HIGH", f"{truth - 0.05}:{truth + 0.05}")
     assert main([*common, "--bounds", wide, "--out", str(out)]) == 0
     document = json.loads(out.read_text())

@@ -77,8 +77,8 @@ def free_parameters(policy: Policy, experiments: Sequence[Experiment], free: Seq
             policy.check(option, name)
     _check_fix_and_bounds(policy, [*names, *(n for n in own if n not in names)], fix, bounds)
     shared_names = [n for n in names if n not in own]
-    shared = [FreeParameter(name, *_floats(policy.shared_box(name, shared_names, fix, bounds)))
-              for name in shared_names if name not in fix]
+    shared = [_shared(name, policy.shared_box(name, shared_names, fix, bounds)) for name in shared_names
+              if name not in fix]
     result = shared + _own(policy, experiments, fix, bounds, {p.name: p for p in shared})
     return cut_to_physics(result, {e.name: {**values, **e.fixed} for e in experiments}, policy.declared)
 
@@ -114,6 +114,6 @@ def _own(policy: Policy, experiments: Sequence[Experiment], fix: Sequence[str],
     return result
 
 
-def _floats(box: Box) -> tuple[float, float, bool, None] | tuple[float, float, bool, str]:
+def _shared(name: str, box: Box) -> FreeParameter:
     low, high, log, relative_to = box
-    return float(low), float(high), log, relative_to
+    return FreeParameter(name, float(low), float(high), log, relative_to=relative_to)

@@ -31,6 +31,7 @@ from pendfmu.fitting.ripple import fit_with_ripple, looks_for_ripple
 from pendfmu.fitting.spec import FitSpec
 from pendfmu.fitting.stiction import JOINTS, bound_stiction
 from pendfmu.fitting.uncertainty import assess_uncertainty
+from pendfmu.physics import pivot_inertia
 from pendfmu.recording.measurement import measurement_signal, no_effect
 
 # RMS of the scaled residuals (1 at the truth) above which the fit says the model is missing something
@@ -132,6 +133,8 @@ def start_vector(free: list[FreeParameter], values: Mapping[str, float], experim
     def default(p: FreeParameter) -> float:
         if p.name not in values and measurement_signal(p.name):
             return no_effect(p.name)
+        if p.name == "J_p" and values.get("J_p") == 0.0:  # 0 is the rod's inertia by convention, not a value
+            return pivot_inertia(values)
         middle = math.sqrt(p.low * p.high) if p.log else 0.5 * (p.low + p.high)
         return values.get(p.name, p.low if p.low == 0 else middle)
 
