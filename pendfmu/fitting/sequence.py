@@ -115,13 +115,6 @@ def fit_all(folder: str | Path, params: Mapping[str, float] | None = None, seed:
     return combined
 
 
-def predict(parameters: Mapping[str, float], recordings: Sequence[Recording]) -> dict[str, dict[str, float]]:
-    """Simulate the whole rig for recordings that were not fitted (the coupled and
-    bang-bang experiments) and measure the prediction error of x and phi, in the signal's
-    unit and in sensor steps where the sidecar gives the resolution."""
-    return prediction_errors(predicted_fits(parameters, recordings))
-
-
 def predicted_fits(parameters: Mapping[str, float], recordings: Sequence[Recording]) -> list[ExperimentFit]:
     """The recordings not fitted, simulated as a whole rig with `parameters`: recorded
     against predicted x and phi, with the values each ran with, for the report."""
