@@ -120,12 +120,15 @@ class ComponentFMU:
         return [self.vr[n] for n in names]
 
     def _initialize(self, parameters: Mapping[str, float] | None, start_time: float) -> None:
-        """Set up, enter initialization mode, set the parameters, exit."""
-        self.slave.setupExperiment(startTime=start_time)
-        self.slave.enterInitializationMode()
+        """Set up, enter initialization mode, set the parameters, exit: the C functions through
+        the binding's wrapper, not fmpy's methods (a fit does this before every simulation,
+        and the methods cost more than the calls)."""
+        fmu, component = self.slave, self.slave.component
+        fmu.call("fmi2SetupExperiment", component, 0, 0.0, start_time, 0, 0.0)
+        fmu.call("fmi2EnterInitializationMode", component)
         if parameters:
             self.set_parameters(parameters)
-        self.slave.exitInitializationMode()
+        fmu.call("fmi2ExitInitializationMode", component)
         self.time = start_time
 
     def restart(self, parameters: Mapping[str, float], start_time: float = 0.0) -> None:
@@ -134,7 +137,7 @@ class ComponentFMU:
         instantiated anew, now and for every later run."""
         if self.resets:
             try:
-                self.slave.reset()
+                self.slave.call("fmi2Reset", self.slave.component)
             except FMUError:
                 self.resets = False
         if not self.resets:

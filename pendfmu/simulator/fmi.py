@@ -104,8 +104,10 @@ class CheckedFMU:
             function.argnames, function.argtypes, function.restype = argnames, argtypes, restype
             self._functions[name] = function
 
-    def _call(self, name: str, *args):
-        """The one wrapper every FMI call goes through (fmpy's methods call it by name)."""
+    def call(self, name: str, *args):
+        """The one wrapper every FMI call goes through: fmpy's methods call it by name (as
+        `_call`), and so can a caller that passes the C arguments itself, where fmpy's
+        Pythonic layer costs more than the call (ComponentFMU's restart, once per run)."""
         function = self._functions[name]
         logged = len(self.messages)
         at = TIME_ARGUMENT.get(name)
@@ -117,6 +119,8 @@ class CheckedFMU:
         if at is not None:  # the instance is at the call's time now, after a step at its end
             self.time = time + args[STEP_SIZE[name]] if name in STEP_SIZE else time
         return result
+
+    _call = call  # the name fmpy's methods use
 
     def failure(self, what: str, function: str | None = None, since: int = 0, time: float | None = None,
                 status: int | None = None) -> FMUError:
@@ -141,8 +145,7 @@ class CheckedFMU:
         except Exception as error:
             if type(error) is not Exception or self.component:  # fmpy's bare Exception: a NULL instance
                 raise
-            raise self.failure(f"{self.INSTANTIATE} refused to instantiate {self.modelIdentifier} (GUID "
-                               f"{self.guid})", self.INSTANTIATE, logged) from None
+            raise self.failure(f"{self.INSTANTIATE} returned no instance", self.INSTANTIATE, logged) from None
 
     def close(self) -> None:
         """Terminate (where allowed) and free the instance; fmpy unloads the library too."""
