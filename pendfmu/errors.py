@@ -58,16 +58,18 @@ class Suspicious(PendfmuError):
 class FMUError(PendfmuError, RuntimeError):
     """An FMU call failed (fmi2Error or worse): the message says what the FMU logged.
 
-    Attributes, where known: `instance` (the component's name), `function` (the fmi2 call),
-    `time` (the communication point), `messages` (what the FMU logged, newest last)."""
+    Attributes, where known: `instance` (the component's name), `function` (the FMI call),
+    `time` (the communication point), `messages` (what the FMU logged, newest last),
+    `status` (what the call returned: 2 Discard, 3 Error, 4 Fatal)."""
 
     def __init__(self, message: str, instance: str | None = None, function: str | None = None,
-                 time: float | None = None, messages: Sequence[str] = ()):
+                 time: float | None = None, messages: Sequence[str] = (), status: int | None = None):
         super().__init__(message)
         self.instance = instance
         self.function = function
         self.time = time
         self.messages = list(messages)
+        self.status = status
 
     def reason(self) -> str:
         """The failure in words, never empty: the message, else what is known of where it

@@ -113,15 +113,15 @@ class FMURunner:
         return self._targets[key]
 
     def open(self, path: str | Path, interface: str = "CS", outputs: Iterable[str] | None = None):
-        """An instantiated (not yet initialized) `pendfmu.check.fmu.Instance`; freed at teardown."""
-        from pendfmu.check.fmu import Instance
+        """An instantiated (not yet initialized) `pendfmu.check.fmu.Driver`; freed at teardown."""
+        from pendfmu.check.fmu import Driver
 
         target = self.target(path)
         kind = _kind(interface)
         if kind not in target.interfaces:
             raise AssertionError(f"{target.name} has no {LONG[kind]} interface (it has: "
                                  f"{', '.join(LONG[k] for k in target.interfaces)})")
-        unit = Instance(target, kind, name=f"test{len(self._open)}")
+        unit = Driver(target, kind, name=f"test{len(self._open)}")
         self._open.append(unit)
         if outputs is not None:
             unit.out = [(_variable(target, name).type, _variable(target, name).valueReference) for name in outputs]

@@ -51,6 +51,10 @@ def test_the_foreign_fmus_pass_every_check(foreign):
     # what they cannot do is reported, not failed
     rows = {r.name: r for r in run_battery(foreign["NoStateCart"], stop=STOP, only=("determinism", "rollback"))}
     assert rows["determinism: reset CS"].figure == "fmi2Reset refused"
+    # the refusal in the FMU's own words (its C code), through the binding's FMUError
+    assert rows["determinism: reset CS"].message.startswith(
+        "NoStateCart at t = 0.2 s: fmi2Reset is not supported by NoStateCart: free this instance and instantiate a "
+        "new one (fmi2Reset returned Error)")
     assert rows["rollback: FMU state CS"].figure == "not declared"
 
 

@@ -11,6 +11,7 @@ import pytest
 from pendfmu.components import ALL_COMPONENTS
 from pendfmu.fmubuild.compiler import fmu_path
 from pendfmu.simulator import ComponentFMU, FMUError
+from pendfmu.simulator.fmi import instantiate_fmu, unpacked_fmu
 from pendfmu.testing import assert_state_rollback, fmus_and_interfaces
 
 
@@ -66,7 +67,7 @@ def test_serialized_state_restores_in_another_instance():
 
 def expect_error(fmu, call, *fragments):
     with pytest.raises(FMUError) as caught:
-        fmu._call(call)
+        call()
     for fragment in fragments:
         assert fragment in str(caught.value)
     # Recoverable: after a reset the same instance initializes and steps again.
@@ -137,7 +138,7 @@ def test_misuse_garbage_state_bytes(cart):
     good = cart.slave.serializeFMUstate(cart.slave.getFMUstate())
     with ComponentFMU("Pendulum") as other:
         with pytest.raises(FMUError, match="not a state of this Pendulum FMU|bytes given"):
-            other._call(lambda: other.slave.deSerializeFMUstate(good))
+            other.slave.deSerializeFMUstate(good)
 
 
 def test_misuse_model_exchange_call_in_co_simulation(cart):
@@ -148,12 +149,11 @@ def test_misuse_model_exchange_call_in_co_simulation(cart):
     assert "not available in Co-Simulation" in cart.messages[-1]
 
 
-def test_wrong_guid_is_refused_with_a_message(cart):
-    library = ctypes.CDLL(str(cart.slave.unzipDirectory) + "/binaries/linux64/Cart.so")
-    library.fmi2Instantiate.restype = ctypes.c_void_p
-    handle = library.fmi2Instantiate(b"x", 1, b"{not-the-guid}", b"", ctypes.byref(cart._callbacks), 0, 0)
-    assert handle is None
-    assert "GUID {not-the-guid} does not match" in cart.messages[-1]
+def test_wrong_guid_is_refused_with_a_message():
+    directory, description = unpacked_fmu("Cart")
+    with pytest.raises(FMUError, match="GUID {not-the-guid} does not match") as caught:
+        instantiate_fmu(directory, description, "CS", "x", guid="{not-the-guid}")
+    assert caught.value.function == "fmi2Instantiate" and caught.value.instance == "x"
 
 
 def resident_kilobytes():
@@ -170,7 +170,7 @@ def test_instantiate_free_cycles_leave_memory_flat(cart):
 
     def cycles(n):
         for _ in range(n):
-            handle = library.fmi2Instantiate(b"m", 1, guid, b"", ctypes.byref(cart._callbacks), 0, 0)
+            handle = library.fmi2Instantiate(b"m", 1, guid, b"", ctypes.byref(cart.slave.callbacks), 0, 0)
             assert handle
             library.fmi2FreeInstance(handle)
 

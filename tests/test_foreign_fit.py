@@ -207,7 +207,7 @@ def test_names_that_are_also_the_rigs_mean_what_the_model_says(tmp_path, capsys)
     code = main(["simulate", "--fmu", str(fmu), "--input", str(recording), "--params", str(tmp_path / "zero.json"),
                  "--out", str(tmp_path / "zero.csv")])
     err = capsys.readouterr().err
-    assert code == 4 and "the model failed: Colliding: m_p = 0 is out of range: a mass must be > 0" in err
+    assert code == 4 and "the model failed: Colliding at t = 0 s: m_p = 0 is out of range: a mass must be > 0" in err
 
 
 def test_an_interrupted_foreign_fit_resumes_to_the_same_result(cart, tmp_path, interrupt_costs):

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from pendfmu.check.fmu import CheckResult, Instance, Target, call_error
+from pendfmu.check.fmu import CheckResult, Driver, Target, call_error
 
 RELATIVE = 1e-6
 
@@ -29,12 +29,12 @@ def run(target: Target, kind: str) -> list[CheckResult]:
     stimulus = target.stimulus(h)
     runs = []
     for divisor in (1, 2, 4):
-        unit = Instance(target, kind)
+        unit = Driver(target, kind)
         try:
             unit.initialize(None, stimulus(0.0))
             runs.append(unit.run(h / divisor, target.stop, stimulus)[::divisor])
         except Exception as error:
-            return [CheckResult(name, False, f"h/{divisor} failed", call_error(error, unit))]
+            return [CheckResult(name, False, f"h/{divisor} failed", call_error(error))]
         finally:
             unit.free()
     coarse, half, quarter = runs

@@ -13,18 +13,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from pendfmu.check.fmu import CheckResult, Instance, Target, call_error, compare, first_difference
+from pendfmu.check.fmu import CheckResult, Driver, Target, call_error, compare, first_difference
+from pendfmu.errors import FMUError
 
 
 def fresh_run(target: Target, kind: str, parameters=None) -> np.ndarray:
-    unit = Instance(target, kind)
+    unit = Driver(target, kind)
     try:
         return _run(target, unit, parameters)
     finally:
         unit.free()
 
 
-def _run(target: Target, unit: Instance, parameters=None) -> np.ndarray:
+def _run(target: Target, unit: Driver, parameters=None) -> np.ndarray:
     stimulus = target.stimulus(target.step)
     unit.initialize(parameters, stimulus(0.0))
     return unit.run(target.step, target.stop, stimulus)
@@ -55,7 +56,7 @@ def run(target: Target, kind: str) -> list[CheckResult]:
     except Exception as error:
         results.append(CheckResult(name, False, "run failed", call_error(error)))
         return results
-    unit = Instance(target, kind)
+    unit = Driver(target, kind)
     try:
         # the instance's first run with p = b (not a: an FMU that derives values from p once
         # would otherwise look right by chance), then reset: back to the start values
@@ -63,10 +64,9 @@ def run(target: Target, kind: str) -> list[CheckResult]:
         _run(target, unit, {varied[0].name: b} if varied else {})
         try:
             unit.reset()
-        except Exception as error:
+        except FMUError as error:
             results.append(CheckResult(name, True, "fmi2Reset refused",
-                                       "fmi2Reset returned an error status (" + call_error(error, unit)
-                                       + "): a host must instantiate anew"))
+                                       call_error(error) + "; a host must instantiate anew"))
             return results
         after = _run(target, unit)
         problems = []
@@ -97,7 +97,7 @@ def run(target: Target, kind: str) -> list[CheckResult]:
         else:
             results.append(CheckResult(name, True, figure))
     except Exception as error:
-        results.append(CheckResult(name, False, "run failed", call_error(error, unit)))
+        results.append(CheckResult(name, False, "run failed", call_error(error)))
     finally:
         unit.free()
     return results

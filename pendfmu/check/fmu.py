@@ -1,12 +1,13 @@
 """Any FMI 2.0 FMU, driven the same way in Co-Simulation and Model Exchange, for the checks.
 
 `Target(path)` reads the model description and unpacks the FMU once (through the
-simulator's `unpacked_fmu`); `target.open("CS" | "ME")` gives an `Instance` that keeps what
-the FMU logged, initializes with parameter values, and steps from one communication point
-to the next with inputs held over the step. In Model Exchange the step is integrated here
-(classical Runge-Kutta, one stage set per communication step or time-event interval),
-with state events located by bisection on the event indicators, so that a discrete change
-happens at the same instant whatever the communication step.
+binding's `unpacked_fmu`); `Driver(target, "CS" | "ME")` instantiates it on the checked
+binding (pendfmu.simulator.fmi: a failing call raises FMUError with what the FMU logged),
+initializes with parameter values, and steps from one communication point to the next with
+inputs held over the step. In Model Exchange the step is integrated here (classical
+Runge-Kutta, one stage set per communication step or time-event interval), with state
+events located by bisection on the event indicators, so that a discrete change happens at
+the same instant whatever the communication step.
 """
 
 from __future__ import annotations
@@ -18,13 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from fmpy import calloc, free
-from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
-from fmpy.logging import addLoggerProxy
 
-from pendfmu.errors import BadInput
+from pendfmu.errors import BadInput, FMUError
+from pendfmu.simulator.fmi import instantiate_fmu, unpacked_fmu
 
 DOUBLE_P = ctypes.POINTER(ctypes.c_double)
 
@@ -37,10 +34,6 @@ class CheckResult:
     passed: bool
     figure: str = ""
     message: str = ""
-
-
-class CheckSkipped(Exception):
-    """A check that does not apply (an FMU without inputs, without FMU state, ...)."""
 
 
 @dataclass
@@ -56,8 +49,6 @@ class Target:
 
     def __init__(self, path: str | Path, stop: float | None = None, step: float | None = None,
                  recording: str | Path | None = None):
-        from pendfmu.simulator.component import unpacked_fmu
-
         self.path = Path(path)
         if not self.path.is_file():
             raise BadInput(f"{path}: no such FMU file")
@@ -173,23 +164,16 @@ def read_inputs(path: str | Path, inputs: list[str]) -> tuple[np.ndarray, dict[s
     return data[:, 0], {name: data[:, j] for j, name in enumerate(header) if j}
 
 
-class Instance:
-    """One instance of the target as CS or ME; every fmi2 call through fmpy (which raises
-    FMICallException on fmi2Error or worse), with the FMU's log kept in `messages`."""
+class Driver:
+    """One instance of the target as CS or ME, stepped from communication point to
+    communication point (ME integrated here). `fmu` is its instance on the checked binding:
+    every call raises FMUError (instance, function, time, what the FMU logged) on a status
+    worse than Warning; `messages` is what the FMU logged."""
 
-    def __init__(self, target: Target, kind: str, name: str = "check", guid: str | None = None):
+    def __init__(self, target: Target, kind: str, name: str | None = None, guid: str | None = None):
         self.target, self.kind = target, kind
-        self.messages: list[str] = []
-        interface = target.interface(kind)
-        cls = FMU2Slave if kind == "CS" else FMU2Model
-        self.fmu = cls(guid=guid or target.md.guid, unzipDirectory=str(target.directory),
-                       modelIdentifier=interface.modelIdentifier, instanceName=name)
-        self.callbacks = fmi2CallbackFunctions()
-        self.callbacks.logger = fmi2CallbackLoggerTYPE(self._log)
-        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        addLoggerProxy(ctypes.byref(self.callbacks))
-        self.fmu.instantiate(callbacks=self.callbacks, loggingOn=False)
+        self.fmu = instantiate_fmu(target.directory, target.md, kind, name, guid)
+        self.messages = self.fmu.messages
         self.in_vr = [v.valueReference for v in target.inputs]
         self.out = [(v.type, v.valueReference) for v in target.outputs]
         self.time = 0.0
@@ -198,9 +182,6 @@ class Instance:
         self.nz = md.numberOfEventIndicators if kind == "ME" else 0
         self.next_event = math.inf
         self.signs = None  # ME: the event indicators' signs at the end of the last step
-
-    def _log(self, environment, instance, status, category, message):
-        self.messages.append(message.decode("utf-8", "replace") if message else "")
 
     # -- set up
 
@@ -232,14 +213,7 @@ class Instance:
         self.fmu.reset()
 
     def free(self) -> None:
-        try:
-            self.fmu.terminate()
-        except Exception:
-            pass
-        try:
-            self.fmu.freeInstance()
-        except Exception:
-            pass
+        self.fmu.close()
 
     # -- values
 
@@ -269,7 +243,7 @@ class Instance:
             self._integrate(self.time + h)
 
     def run(self, h: float, stop: float, stimulus: Callable[[float], np.ndarray] | None,
-            until: float | None = None, record_modes: list | None = None) -> np.ndarray:
+            record_modes: list | None = None) -> np.ndarray:
         """Step from the current time to `stop` with step h (inputs from `stimulus` at each
         communication point); returns the outputs at every point, the first row now."""
         first = int(round(self.time / h))  # times as whole multiples of h: a rerun from a
@@ -289,11 +263,12 @@ class Instance:
 
     def _event_iteration(self) -> None:
         while True:
+            logged = len(self.messages)
             info = self.fmu.newDiscreteStates()
             # (newDiscreteStatesNeeded, terminateSimulation, nominalsChanged, valuesChanged,
             #  nextEventTimeDefined, nextEventTime)
             if info[1]:
-                raise FMICallException(function="fmi2NewDiscreteStates", status=3)
+                raise self._terminated("fmi2NewDiscreteStates", logged)
             if not info[0]:
                 self.next_event = info[5] if info[4] else math.inf
                 return
@@ -363,14 +338,19 @@ class Instance:
                         low = mid
                 t_next = t + high
                 self._set(t_next, self._rk4(t, x, high))
+            logged = len(self.messages)
             step_event, terminate = self.fmu.completedIntegratorStep()
             if terminate:
-                raise FMICallException(function="fmi2CompletedIntegratorStep", status=3)
+                raise self._terminated("fmi2CompletedIntegratorStep", logged)
             if crossed or step_event or t_next >= self.next_event - eps:
                 self._event_at_point()
             self.signs = self._indicators() > 0
             t = t_next
         self.time = t_end
+
+    def _terminated(self, function: str, since: int) -> FMUError:
+        """The FMU asked to end the simulation (terminateSimulation): it cannot go on."""
+        return self.fmu.failure(f"{function} asked to terminate the simulation", function, since)
 
     def _event_at_point(self) -> None:
         self.fmu.enterEventMode()
@@ -390,10 +370,10 @@ class Instance:
         self.fmu.freeFMUstate(saved[0])
 
 
-def call_error(error: Exception, instance: Instance | None = None) -> str:
-    """What went wrong in a call, with what the FMU logged."""
-    said = "; ".join(m for m in (instance.messages[-2:] if instance else []) if m)
-    return f"{error}" + (f" (the FMU logged: {said})" if said else "")
+def call_error(error: Exception) -> str:
+    """What went wrong in a run: an FMUError says it all (instance, function, time, what the
+    FMU logged); anything else is the checker's own trouble, named by its type."""
+    return str(error) if isinstance(error, FMUError) else f"{type(error).__name__}: {error}"
 
 
 def compare(a: np.ndarray, b: np.ndarray) -> float:

@@ -10,10 +10,10 @@ declared range a refusal is the FMU's right.
 
 from __future__ import annotations
 
-
 import numpy as np
 
-from pendfmu.check.fmu import CheckResult, Instance, Target, call_error
+from pendfmu.check.fmu import CheckResult, Driver, Target, call_error
+from pendfmu.errors import FMUError
 
 SAMPLES = 5
 
@@ -34,16 +34,16 @@ def run(target: Target, kind: str) -> list[CheckResult]:
         for value in np.linspace(span.low, span.high, SAMPLES):
             held = starts.copy()
             held[j] = value
-            unit = Instance(target, kind)
+            unit = Driver(target, kind)
             try:
                 unit.initialize(None, held)
                 rows = unit.run(h, steps * h, lambda t: held)
-            except Exception as error:
+            except FMUError as error:
                 if span.declared:
                     return [CheckResult(name, False, f"{v.name} = {value:g} refused",
                                         f"input {v.name} = {value:g} is inside its declared range "
                                         f"[{span.low:g}, {span.high:g}] but the FMU refused it: "
-                                        + call_error(error, unit))]
+                                        + call_error(error))]
                 refused.append(f"{v.name} = {value:g}")
                 continue
             finally:

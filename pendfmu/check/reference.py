@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.check.fmu import CheckResult, Instance, Target, call_error
+from pendfmu.check.fmu import CheckResult, Driver, Target, call_error
 from pendfmu.errors import BadInput
 
 DEFAULT_RTOL = 1e-3
@@ -304,7 +304,7 @@ def run_on_grid(target: Target, kind: str, reference: Reference,
             columns.append(np.full(len(times), float(v.start) if v.start is not None else 0.0))
     inputs = np.column_stack(columns) if columns else None
     variables = [target.variables[name] for name in reference.outputs]
-    unit = Instance(target, kind, name="reference")
+    unit = Driver(target, kind, name="reference")
     out = np.full((len(times), len(variables)), np.nan)
 
     def read(k: int) -> None:
@@ -330,7 +330,7 @@ def run_on_grid(target: Target, kind: str, reference: Reference,
                 unit.fmu.setReal(unit.in_vr, list(inputs[k + 1]))
             read(k + 1)
     except Exception as error:
-        raise RuntimeError(f"the run on the reference's grid failed: {call_error(error, unit)}") from None
+        raise RuntimeError(f"the run on the reference's grid failed: {call_error(error)}") from None
     finally:
         unit.free()
     return {name: out[:, j] for j, name in enumerate(reference.outputs)}

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pendfmu.check.fmu import CheckResult, Instance, Target, call_error, compare, first_difference
+from pendfmu.check.fmu import CheckResult, Driver, Target, call_error, compare, first_difference
 
 MAX_MODE_SAVES = 8  # states saved at the first instants of this many mode combinations at most
 
@@ -20,7 +20,7 @@ def run(target: Target, kind: str) -> list[CheckResult]:
         return [CheckResult(name, True, "not declared", "canGetAndSetFMUstate is false: nothing to roll back")]
     h, stimulus = target.step, target.stimulus(target.step)
     n = int(round(target.stop / h))
-    unit = Instance(target, kind)
+    unit = Driver(target, kind)
     try:
         unit.initialize(None, stimulus(0.0))
         # a first run to find where the modes change
@@ -82,7 +82,7 @@ def run(target: Target, kind: str) -> list[CheckResult]:
             unit.free_state(state)
         return results
     except Exception as error:
-        return [CheckResult(name, False, "call failed", call_error(error, unit))]
+        return [CheckResult(name, False, "call failed", call_error(error))]
     finally:
         unit.free()
 

@@ -98,11 +98,10 @@ def _child(path: str, kind: str, step: float, cases: list[str]) -> None:
 
 
 def _misuse(target: Target, kind: str, step: float, case: str) -> dict:
-    from fmpy.fmi1 import FMICallException
+    from pendfmu.check.fmu import Driver
+    from pendfmu.errors import FMUError
 
-    from pendfmu.check.fmu import Instance
-
-    unit = Instance(target, kind)
+    unit = Driver(target, kind)
     fmu = unit.fmu
 
     def attempt(call: str, function, *args) -> dict:
@@ -110,8 +109,8 @@ def _misuse(target: Target, kind: str, step: float, case: str) -> dict:
         try:
             function(*args)
             status = 0
-        except FMICallException as error:
-            status = int(error.status)
+        except FMUError as error:  # no status: the FMU asked to terminate (Model Exchange), a refusal too
+            status = ERROR if error.status is None else error.status
         return {"status": status, "logged": unit.messages[before:][:3], "call": call}
 
     try:

@@ -14,7 +14,8 @@ import sys
 import numpy as np
 from fmpy.validation import validate_fmu
 
-from pendfmu.check.fmu import CheckResult, Instance, Target, call_error
+from pendfmu.check.fmu import CheckResult, Driver, Target, call_error
+from pendfmu.errors import FMUError
 
 COMMON = ("GetTypesPlatform", "GetVersion", "SetDebugLogging", "Instantiate", "FreeInstance", "SetupExperiment",
           "EnterInitializationMode", "ExitInitializationMode", "Terminate", "Reset", "GetReal", "GetInteger",
@@ -67,8 +68,8 @@ def check_exports(target: Target, kind: str) -> CheckResult:
 def check_guid(target: Target, kind: str) -> CheckResult:
     name = f"static: GUID {kind}"
     try:
-        wrong = Instance(target, kind, guid=WRONG_GUID)
-    except Exception:
+        wrong = Driver(target, kind, guid=WRONG_GUID)
+    except FMUError:
         wrong = None
     if wrong is not None:
         wrong.free()
@@ -76,8 +77,8 @@ def check_guid(target: Target, kind: str) -> CheckResult:
                            f"fmi2Instantiate accepted {WRONG_GUID}: the binary does not check the GUID of the "
                            f"model description it is used with")
     try:
-        right = Instance(target, kind)
-    except Exception as error:
+        right = Driver(target, kind)
+    except FMUError as error:
         return CheckResult(name, False, "own GUID refused",
                            f"fmi2Instantiate refused the GUID {target.md.guid} of modelDescription.xml: {error}")
     right.free()
@@ -92,7 +93,7 @@ def check_capabilities(target: Target, kind: str) -> CheckResult:
     tried = []
     unit = None
     try:
-        unit = Instance(target, kind)
+        unit = Driver(target, kind)
         unit.initialize()
         h = target.step
         unit.step(h, None)
@@ -137,7 +138,7 @@ def check_capabilities(target: Target, kind: str) -> CheckResult:
             unit.step(h / 3, None)
             tried.append("variable steps")
     except Exception as error:
-        return CheckResult(name, False, "call failed", "a declared capability failed: " + call_error(error, unit))
+        return CheckResult(name, False, "call failed", "a declared capability failed: " + call_error(error))
     finally:
         if unit is not None:
             unit.free()

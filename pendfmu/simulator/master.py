@@ -27,12 +27,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from fmpy.fmi1 import FMICallException
 
-from pendfmu.simulator.component import (
-    PROCESS_POOL, ComponentFMU, FMUError, discrete_outputs, once_per_process, pooled_instance, unpacked_fmu,
-)
+from pendfmu.errors import FMUError
+from pendfmu.simulator.component import PROCESS_POOL, ComponentFMU, discrete_outputs, once_per_process, pooled_instance
 from pendfmu.simulator.coupled import CoupledSteps, CouplingError
+from pendfmu.simulator.fmi import unpacked_fmu
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order, tear_of
 
 
@@ -300,6 +299,7 @@ class Master(CoupledSteps):
         tears = [self.tears.get(tuple(group)) for group in self.order]
         tears = [(index[tear[0]], fmus[tear[0]].vr[tear[1]]) if tear else None for tear in tears]
         clocks = [fmus[n].vr.get("t_mode") for n in names]  # events inside coupled steps (coupled.py)
+        logged = {n: len(fmus[n].messages) for n in names}
         recorded, system = run_system([fmus[n].slave for n in names], links, drives, groups, tears, clocks, grid,
                                       record, [(index[n], fmus[n].vr[v]) for n, v in outputs], self.loop_tolerance,
                                       self.max_iterations)
@@ -314,11 +314,13 @@ class Master(CoupledSteps):
                                 f"{system.last_change:.3g})")
         if failure is Failure.TOO_MANY_PORTS:
             raise ValueError(f"the native engine takes at most {MAX_PORTS} inputs per component; use engine='python'")
+        if failure is Failure.NO_MEMORY:  # as before: no unit to blame
+            raise FMUError(f"the system at t = {system.fail_time:.9g} s: out of memory, or more connections than "
+                           f"the native loop holds", time=system.fail_time)
         if failure is not Failure.NONE:
-            name = names[system.fail_unit] if system.fail_unit >= 0 else "the system"
-            said = "; ".join(fmus[name].messages[-3:]) if name in fmus else "out of memory"
-            raise FMUError(f"{name} at t = {system.fail_time:.9g} s: {said}", instance=name, time=system.fail_time,
-                           messages=fmus[name].messages[-3:] if name in fmus else ())
+            name = names[system.fail_unit]
+            raise fmus[name].slave.failure("an FMI call of the native loop failed", since=logged[name],
+                                           time=system.fail_time)
         # copy=False: the columns stay the arrays filled above (no second pass over fresh memory)
         return pd.DataFrame({"time": sample_times, **{label: recorded[:, j] for j, label in enumerate(labels)}},
                             copy=False)
@@ -351,7 +353,7 @@ class Master(CoupledSteps):
             fmu.set(**dict(zip(names, values)))
             if length > 0 and any(slopes):
                 refs = [fmu.vr[n] for n in names]
-                fmu._call(fmu.slave.setRealInputDerivatives, refs, [1] * len(refs), slopes)
+                fmu.slave.setRealInputDerivatives(refs, [1] * len(refs), slopes)
 
     def _solve_point(self, fmus, signals, t, links=None) -> None:
         """Make connected signals (`links`, default all) consistent at one instant: the
@@ -384,11 +386,7 @@ class Master(CoupledSteps):
                 self._coupled_step(fmus, signals, start, external, group, internal, t, h)
 
     def _do_step(self, fmu: ComponentFMU, t: float, h: float) -> None:
-        try:
-            fmu.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
-        except FMICallException:
-            raise FMUError(f"{fmu.name} at t = {t:.9g} s: {'; '.join(fmu.messages[-3:])}", instance=fmu.name,
-                           function="fmi2DoStep", time=t, messages=fmu.messages[-3:]) from None
+        fmu.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
 
     def _publish(self, fmus, signals, names) -> None:
         for (source, output) in signals:

@@ -23,7 +23,8 @@ from pathlib import Path
 from pendfmu.errors import BadInput
 from pendfmu.ranges import outside
 from pendfmu.recording.schema import Vocabulary, WithMeasurements
-from pendfmu.simulator.component import once_per_process, unpacked_fmu
+from pendfmu.simulator.component import once_per_process
+from pendfmu.simulator.fmi import unpacked_fmu
 from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
 from pendfmu.suggest import did_you_mean
 

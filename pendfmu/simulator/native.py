@@ -2,9 +2,10 @@
 
 It is compiled from pendfmu/csrc/runner/runner.c with the FMUs' toolchain into the FMU folder's build/ (not
 committed), rebuilt when its source changes, and loaded with ctypes. It calls the fmi2
-functions of an instance that fmpy created, through function pointers taken from fmpy's
-loaded library, so everything about the instance (parameters, logging, errors) stays in
-the fmpy layer and only the loop moves to C.
+functions of an instance that the checked binding (fmi.py) created, through the addresses
+the binding gives, so everything about the instance (parameters, logging, errors) stays in
+the binding and only the loop moves to C; a failure it reports becomes the binding's
+FMUError (`CheckedFMU.failure`) with what the FMU logged.
 """
 
 from __future__ import annotations
@@ -109,17 +110,17 @@ def library() -> ctypes.CDLL:
     return lib
 
 
-def system_unit_of(slave) -> SystemUnit:
-    address = lambda function: ctypes.cast(function, ctypes.c_void_p).value  # noqa: E731
-    return SystemUnit(unit_of(slave), address(slave.dll.fmi2GetFMUstate), address(slave.dll.fmi2SetFMUstate),
-                      address(slave.dll.fmi2FreeFMUstate))
+def system_unit_of(fmu) -> SystemUnit:
+    """The C view of an instance in a system: unit_of, and its FMU state functions."""
+    return SystemUnit(unit_of(fmu), fmu.address("fmi2GetFMUstate"), fmu.address("fmi2SetFMUstate"),
+                      fmu.address("fmi2FreeFMUstate"))
 
 
 def _array(kind, values):
     return (kind * max(len(values), 1))(*values)
 
 
-def run_system(slaves: list, links: list[tuple[int, int, int, int, int]], drives: list[tuple[int, int, np.ndarray,
+def run_system(fmus: list, links: list[tuple[int, int, int, int, int]], drives: list[tuple[int, int, np.ndarray,
                np.ndarray]], groups: list[list[int]], tears: list[tuple[int, int] | None], clocks: list[int | None],
                times: np.ndarray, record: np.ndarray, outputs: list[tuple[int, int]], tolerance: float,
                max_iterations: int) -> tuple[np.ndarray, System]:
@@ -133,7 +134,7 @@ def run_system(slaves: list, links: list[tuple[int, int, int, int, int]], drives
     keep = [np.ascontiguousarray(v, dtype=float) for _, _, values, slopes in drives for v in (values, slopes)]
     starts = np.cumsum([0] + [len(g) for g in groups])
     system = System(
-        len(slaves), _array(SystemUnit, [system_unit_of(s) for s in slaves]),
+        len(fmus), _array(SystemUnit, [system_unit_of(fmu) for fmu in fmus]),
         len(links), _array(Link, [Link(*link) for link in links]),
         len(drives), _array(Drive, [Drive(unit, vr, _doubles(keep[2 * j]), _doubles(keep[2 * j + 1]))
                                     for j, (unit, vr, _, _) in enumerate(drives)]),
@@ -149,11 +150,11 @@ def run_system(slaves: list, links: list[tuple[int, int, int, int, int]], drives
     return result, system
 
 
-def unit_of(slave) -> Unit:
-    """The C view of an fmpy FMU2Slave instance: its component and fmi2 functions."""
-    address = lambda function: ctypes.cast(function, ctypes.c_void_p).value  # noqa: E731
-    return Unit(slave.component, address(slave.dll.fmi2SetReal), address(slave.dll.fmi2GetReal),
-                address(slave.dll.fmi2DoStep), address(slave.dll.fmi2SetRealInputDerivatives))
+def unit_of(fmu) -> Unit:
+    """The C view of an FMI 2.0 Co-Simulation instance of the binding (fmi.FMU2CS): its
+    component and the fmi2 functions the loop calls."""
+    return Unit(fmu.component, fmu.address("fmi2SetReal"), fmu.address("fmi2GetReal"), fmu.address("fmi2DoStep"),
+                fmu.address("fmi2SetRealInputDerivatives"))
 
 
 def _doubles(array: np.ndarray):
@@ -166,7 +167,7 @@ def _refs(values: list[int]):
 
 def run_single(unit: Unit, times: np.ndarray, input_vrs: list[int], inputs: np.ndarray, output_vrs: list[int],
                slopes: np.ndarray | None = None) -> tuple[np.ndarray, int]:
-    """Step an initialized instance (`unit`: unit_of its FMU2Slave) through `times`; each
+    """Step an initialized instance (`unit`: unit_of its FMU2CS) through `times`; each
     input is set to its value at the step's start and, with `slopes`, follows that slope
     over the step (linear interpolation through fmi2SetRealInputDerivatives), else it is
     held.

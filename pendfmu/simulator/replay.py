@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pendfmu.errors import FMUError
 from pendfmu.recording.measurement import INPUT_DELAY
 from pendfmu.simulator.component import PROCESS_POOL, ComponentFMU, InstancePool, discrete_outputs, pooled_instance
 from pendfmu.simulator.model import Model, ModelError, Port
@@ -167,12 +166,11 @@ class Replay:
         interpolate = any(s is not None and np.any(s) for s in slopes)
         slope_matrix = (np.column_stack([np.zeros(len(points)) if s is None else s for s in slopes])
                         if interpolate else None)
+        logged = len(fmu.messages)
         result, failed = run_single(fmu.unit, points, [fmu.vr[n] for n in names], matrix,
                                     [fmu.vr[p.variable] for p in outputs], slope_matrix)
         if failed >= 0:
-            said = "; ".join(fmu.messages[-3:])
-            raise FMUError(f"{name} at t = {points[failed]:.9g} s: {said}", instance=name, time=float(points[failed]),
-                           messages=fmu.messages[-3:])
+            raise fmu.slave.failure("an FMI call of the native loop failed", since=logged, time=points[failed])
         return {port: result[:, j] for j, port in enumerate(outputs)}
 
     def _driven(self, name: str, fmu: ComponentFMU, points: np.ndarray, samples: np.ndarray, delay: float = 0.0):

@@ -1,0 +1,248 @@
+"""The one checked binding to FMU binaries: every FMI call goes through one wrapper.
+
+fmpy mirrors each C function of the FMI standard by a method that hands its arguments to
+one function, `_call`, and offers Pythonic methods above those (getReal, doStep,
+getFMUstate, ...). The classes here are fmpy's with that one function replaced: a call
+that returns a status worse than Warning raises pendfmu.errors.FMUError naming the
+instance, the function, the time and what the FMU logged during the call, so that the
+simulator, the check battery and the pytest plugin all meet the same error. Besides, they
+keep what the FMU logs, build fmpy's table of the C functions once per class instead of
+once per instance (fmpy inspects every function's signature: 2 ms of the 3 ms an FMU takes
+to load), and give the native loop (native.py) the C functions' addresses.
+
+    fmu = instantiate_fmu(directory, description, "CS")   # FMI 2.0 or 3.0, "CS" or "ME"
+    fmu.setupExperiment(startTime=0.0)                    # fmpy's methods, every one checked
+    ...
+    fmu.close()
+
+`unpacked_fmu` unpacks an FMU once per file and GUID; the classes are picked by the model
+description's FMI version and the interface (CLASSES).
+"""
+
+from __future__ import annotations
+
+import atexit
+import ctypes
+import itertools
+import shutil
+import tempfile
+import weakref
+from pathlib import Path
+
+from fmpy import calloc, extract, free
+from fmpy.fmi1 import printLogMessage
+from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+from fmpy.fmi3 import FMU3Model, FMU3Slave
+from fmpy.logging import addLoggerProxy
+
+from pendfmu.errors import BadInput, FMUError
+
+WARNING = 1
+"""fmi2Status and fmi3Status: a call that returns more than Warning failed."""
+STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
+
+TIME_ARGUMENT = {"fmi2SetupExperiment": 3, "fmi2SetTime": 1, "fmi2DoStep": 1,
+                 "fmi3EnterInitializationMode": 3, "fmi3SetTime": 1, "fmi3DoStep": 1}
+"""The position of the time among a function's arguments (after the instance): the time
+the instance is at from that call on, and that a failure is reported at."""
+STEP_SIZE = {"fmi2DoStep": 2, "fmi3DoStep": 2}
+"""Where a step's size is: after a step the instance is that much further."""
+
+_UNPACKED: dict[str, tuple[Path, object]] = {}
+
+
+def unpacked_fmu(name: str, fmu: str | Path | None = None, copy: int = 0) -> tuple[Path, object]:
+    """(unzip directory, model description) of component `name`, unpacked once per GUID.
+
+    Without `fmu` the component is built from source if needed; with it, that file is used
+    (an FMU from an .ssp archive or an exported, re-parameterized one). `copy` > 0 unpacks
+    another copy: its binary is loaded as a library of its own, with its own globals, so
+    that instances in different threads share nothing (see Residuals' Jacobian threads)."""
+    from pendfmu.fmubuild import ensure_fmu
+    from pendfmu.fmubuild.compiler import model_description
+
+    path = Path(fmu) if fmu is not None else ensure_fmu(name)
+    md = model_description(path)
+    key = f"{path.resolve()}:{md.guid}:{copy}"
+    if key not in _UNPACKED:
+        directory = Path(tempfile.mkdtemp(prefix=f"pendfmu-{name}-"))
+        extract(str(path), str(directory))
+        atexit.register(shutil.rmtree, directory, True)
+        _UNPACKED[key] = (directory, md)
+    return _UNPACKED[key]
+
+
+class CheckedFMU:
+    """What pendfmu adds to fmpy's FMU classes (a mixin, first among a class's bases).
+
+    Attributes:
+        messages: what the FMU logged, oldest first (its logger callback appends them).
+        time: the instance's time as its last timed call left it (TIME_ARGUMENT); None
+            before the first.
+    """
+
+    INSTANTIATE = ""  # the C function that creates an instance: named when it refuses
+    _tables: dict[type, list] = {}
+
+    def __init__(self, **kwargs):
+        self.messages: list[str] = []
+        self.time: float | None = None
+        super().__init__(**kwargs)
+
+    def _loadFunctions(self) -> None:
+        """fmpy's table of C functions (argument and result types), built by fmpy for the
+        first instance of each class and set on the same C functions for the others."""
+        table = CheckedFMU._tables.get(type(self))
+        if table is None:
+            super()._loadFunctions()
+            CheckedFMU._tables[type(self)] = [(name, f.argnames, f.argtypes, f.restype)
+                                              for name, f in self._functions.items()]
+            return
+        for name, argnames, argtypes, restype in table:
+            function = getattr(self.dll, name)
+            function.argnames, function.argtypes, function.restype = argnames, argtypes, restype
+            self._functions[name] = function
+
+    def call(self, name: str, *args):
+        """The one wrapper every FMI call goes through: fmpy's methods call it by name (as
+        `_call`), and so can a caller that passes the C arguments itself, where fmpy's
+        Pythonic layer costs more than the call (ComponentFMU's restart, once per run)."""
+        function = self._functions[name]
+        logged = len(self.messages)
+        at = TIME_ARGUMENT.get(name)
+        time = self.time if at is None else args[at]
+        result = function(*args)
+        if function.restype is ctypes.c_int and result > WARNING:
+            label = STATUS[result] if 0 <= result < len(STATUS) else f"status {result}"
+            raise self.failure(f"{name} returned {label}", name, logged, time, result)
+        if at is not None:  # the instance is at the call's time now, after a step at its end
+            self.time = time + args[STEP_SIZE[name]] if name in STEP_SIZE else time
+        return result
+
+    _call = call  # the name fmpy's methods use
+
+    def failure(self, what: str, function: str | None = None, since: int = 0, time: float | None = None,
+                status: int | None = None) -> FMUError:
+        """The FMUError of a failed call: `what` went wrong (in `function`), the instance at
+        `time` (default: its own), with what the FMU logged from message `since` on. Also
+        for a failure the native loop reports, which knows the time but not the function."""
+        time = self.time if time is None else time
+        where = self.instanceName + ("" if time is None else f" at t = {float(time):.9g} s")
+        logged = [message for message in self.messages[since:] if message]
+        said = f"{'; '.join(logged[-3:])} ({what})" if logged else f"{what}; the FMU logged nothing"
+        return FMUError(f"{where}: {said}", instance=self.instanceName, function=function,
+                        time=None if time is None else float(time), messages=logged, status=status)
+
+    def _log(self, message: bytes | None) -> None:
+        self.messages.append(message.decode("utf-8", "replace") if message else "")
+
+    def open(self, logging: bool = False) -> None:
+        """Instantiate, with a logger that keeps the FMU's messages; FMUError if refused."""
+        logged = len(self.messages)
+        try:
+            self._instantiate(logging)  # FMI2Logging's or FMI3Logging's
+        except Exception as error:
+            if type(error) is not Exception or self.component:  # fmpy's bare Exception: a NULL instance
+                raise
+            raise self.failure(f"{self.INSTANTIATE} returned no instance", self.INSTANTIATE, logged) from None
+
+    def close(self) -> None:
+        """Terminate (where allowed) and free the instance; fmpy unloads the library too."""
+        if not self.component:
+            return
+        try:
+            self.terminate()
+        except FMUError:
+            pass  # not running (instantiated, reset, or in error): freeing is allowed from any phase
+        self.freeInstance()
+        self.component = None
+
+    def address(self, function: str) -> int:
+        """The address of a C function of the FMU's library (for the native loop)."""
+        return ctypes.cast(getattr(self.dll, function), ctypes.c_void_p).value
+
+
+_BY_ENVIRONMENT: weakref.WeakValueDictionary[int, CheckedFMU] = weakref.WeakValueDictionary()
+_ENVIRONMENTS = itertools.count(1)
+
+
+def _route(environment, instance_name, status, category, message) -> None:
+    """The one logger of every FMI 2.0 instance: fmpy's logger proxy (a C function that
+    formats the FMU's printf-style arguments) keeps a single Python logger for the whole
+    process, so each instance's callbacks carry an environment of its own, and this hands
+    the message to that instance. A message of an instance made elsewhere is printed, as
+    fmpy's default logger does."""
+    fmu = _BY_ENVIRONMENT.get(environment)
+    if fmu is None:
+        printLogMessage(environment, instance_name, status, category, message)
+    else:
+        fmu._log(message)
+
+
+_ROUTE = fmi2CallbackLoggerTYPE(_route)
+
+
+class FMI2Logging:
+    """FMI 2.0's instantiation: the logger sits in a callback structure."""
+
+    def _instantiate(self, logging: bool) -> None:
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = _ROUTE
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        callbacks.componentEnvironment = environment = next(_ENVIRONMENTS)
+        _BY_ENVIRONMENT[environment] = self
+        addLoggerProxy(ctypes.byref(callbacks))  # (again: another caller may have taken the proxy since)
+        self.instantiate(callbacks=callbacks, loggingOn=logging)
+
+
+class FMI3Logging:
+    """FMI 3.0's instantiation: the logger is an argument of its own."""
+
+    def _instantiate(self, logging: bool) -> None:
+        self.instantiate(loggingOn=logging, logMessage=lambda env, status, category, message: self._log(message))
+
+
+# The class names start with FMU2 or FMU3: fmpy picks the C functions' prefix by them.
+
+class FMU2CS(CheckedFMU, FMI2Logging, FMU2Slave):
+    """An FMI 2.0 Co-Simulation instance, every call checked."""
+    INSTANTIATE = "fmi2Instantiate"
+
+
+class FMU2ME(CheckedFMU, FMI2Logging, FMU2Model):
+    """An FMI 2.0 Model Exchange instance, every call checked."""
+    INSTANTIATE = "fmi2Instantiate"
+
+
+class FMU3CS(CheckedFMU, FMI3Logging, FMU3Slave):
+    """An FMI 3.0 Co-Simulation instance, every call checked."""
+    INSTANTIATE = "fmi3InstantiateCoSimulation"
+
+
+class FMU3ME(CheckedFMU, FMI3Logging, FMU3Model):
+    """An FMI 3.0 Model Exchange instance, every call checked."""
+    INSTANTIATE = "fmi3InstantiateModelExchange"
+
+
+CLASSES = {("2", "CS"): FMU2CS, ("2", "ME"): FMU2ME, ("3", "CS"): FMU3CS, ("3", "ME"): FMU3ME}
+"""The class for (FMI major version, interface)."""
+
+
+def instantiate_fmu(directory: str | Path, description, interface: str = "CS", name: str | None = None,
+                    guid: str | None = None, logging: bool = False) -> CheckedFMU:
+    """Load the FMU unpacked in `directory` (`description`: its model description) and
+    instantiate it as `interface` ("CS" or "ME"), named `name` (default: its model
+    identifier). `guid` another than the description's (to see it refused); `logging`
+    turns the FMU's debug logging on."""
+    declared = description.coSimulation if interface == "CS" else description.modelExchange
+    major = str(description.fmiVersion).split(".")[0]
+    if (major, interface) not in CLASSES or declared is None:
+        raise BadInput(f"{directory}: no {interface} interface of FMI {description.fmiVersion} here (pendfmu "
+                       f"instantiates FMI 2.0 and 3.0, CS and ME, as the FMU declares them)")
+    fmu = CLASSES[(major, interface)](guid=guid or description.guid, unzipDirectory=str(directory),
+                                      modelIdentifier=declared.modelIdentifier,
+                                      instanceName=name or declared.modelIdentifier)
+    fmu.open(logging)
+    return fmu
