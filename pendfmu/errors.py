@@ -13,6 +13,7 @@ pulling in the others. Each module defines its narrow classes on these bases::
     |   +-- ParameterError         simulator.component
     |   +-- SspError               ssp
     +-- Suspicious                 exit 3 under --strict: the data look wrong (fitting.plausibility)
+    +-- Interrupted                exit 130: a fit stopped by Ctrl-C, with its best values (fitting.checkpoint)
     +-- FMUError (RuntimeError)    exit 4: an FMU refused a call (which instance, function,
     |   |                          time, what it logged): the model failed, not pendfmu
     |   +-- CouplingError          an algebraic loop that did not settle (simulator.coupled)

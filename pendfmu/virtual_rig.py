@@ -30,7 +30,7 @@ from pendfmu.parameters import write_parameters
 from pendfmu.physics import overlay, settled
 from pendfmu.recording import Recording, SignalInfo, quantize, write_recording
 from pendfmu.simulator.component import ComponentFMU
-from pendfmu.simulator.graph import Connection
+from pendfmu.simulator.graph import Wire
 from pendfmu.simulator.master import ExternalInput, Master
 
 ENCODER_COUNTS = 1024
@@ -106,8 +106,9 @@ def steps(*levels: tuple[float, float]) -> Callable[[float], float]:
 
 
 @dataclass(frozen=True)
-class Experiment:
-    """One recording: what runs, what drives it, what is recorded and how often."""
+class Trial:
+    """One recording to make on the virtual rig: what runs, what drives it, what is recorded
+    and how often. (A trial of the rig; a recording prepared for a fit is fitting's Experiment.)"""
 
     name: str
     kind: str  # current | cart | pendulum | rig
@@ -121,37 +122,37 @@ class Experiment:
     description: str = ""
 
 
-def standard_experiments(release_angle: float = RELEASE_ANGLE) -> list[Experiment]:
+def standard_experiments(release_angle: float = RELEASE_ANGLE) -> list[Trial]:
     """The paper's sequence (MODEL.md, 'The identification experiments'); the free decay
     starts `release_angle` from hanging."""
     experiments = [
-        Experiment("current-steps", "current", 0.022, 20e-6, ("I_c", "I"),
+        Trial("current-steps", "current", 0.022, 20e-6, ("I_c", "I"),
                    steps((0, 0.0), (1e-3, 1.5), (6e-3, 3.0), (11e-3, 0.5), (16e-3, -2.0)),
                    description="steps of the command current; the current loop alone"),
-        Experiment("cart-startup-2A", "cart", 1.2, 2e-4, ("I_c", "I", "x"),
+        Trial("cart-startup-2A", "cart", 1.2, 2e-4, ("I_c", "I", "x"),
                    steps((0, 0.0), (0.05, 2.0), (0.6, 0.0)), sidecar_parameters={"m_p": 0.0},
                    known_initial=("x", "v"), description="start-up and braking, pendulum removed"),
-        Experiment("cart-startup-3A", "cart", 1.2, 2e-4, ("I_c", "I", "x"),
+        Trial("cart-startup-3A", "cart", 1.2, 2e-4, ("I_c", "I", "x"),
                    steps((0, 0.0), (0.05, 3.0), (0.45, 0.0)), sidecar_parameters={"m_p": 0.0},
                    known_initial=("x", "v"), description="start-up and braking, pendulum removed"),
-        Experiment("cart-ramp", "cart", 2.0, 2e-4, ("I_c", "I", "x"),
+        Trial("cart-ramp", "cart", 2.0, 2e-4, ("I_c", "I", "x"),
                    lambda t: 0.6 * t, sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"),
                    description="slow current ramp through breakaway, pendulum removed"),
-        Experiment("pendulum-decay", "pendulum", 30.0, 2e-4, ("phi",), lambda t: 0.0,
+        Trial("pendulum-decay", "pendulum", 30.0, 2e-4, ("phi",), lambda t: 0.0,
                    truth_overrides={"phi0": math.pi + release_angle, "w0": 0.0}, known_initial=("w",),
                    description="free damped swing from an unknown release angle, cart still"),
-        Experiment("pendulum-stiction", "pendulum", 12.0, 2e-4, ("a", "phi"),
+        Trial("pendulum-stiction", "pendulum", 12.0, 2e-4, ("a", "phi"),
                    lambda t: 0.5 * math.sin(2 * math.pi * t / 4.0),
                    truth_overrides={"phi0": math.pi, "w0": 0.0}, known_initial=("phi", "w"),
                    description="pendulum at rest, cart rocked slowly (a = 0.5 sin(2 pi t/4) m/s2): "
                                "every stick-slip starts where the tilt torque exceeds T_Sp"),
-        Experiment("coupled-step", "rig", 3.0, 2e-4, ("I_c", "I", "x", "phi"),
+        Trial("coupled-step", "rig", 3.0, 2e-4, ("I_c", "I", "x", "phi"),
                    steps((0, 0.0), (0.05, 1.5), (0.4, 0.0)), truth_overrides={"phi0": math.pi},
                    known_initial=("x", "v", "phi", "w"),
                    description="current step moves the cart and sets the pendulum swinging"),
     ]
     for k, angle in enumerate((-0.3, 0.0, 0.3)):
-        experiments.append(Experiment(
+        experiments.append(Trial(
             f"bangbang-{k}", "rig", 3.0, 2e-4, ("I_c", "I", "x", "phi"),
             steps((0, 0.0), (0.05, 2.5), (0.35, -2.5), (0.65, 0.0)),
             truth_overrides={"phi0": math.pi + angle}, known_initial=("x", "v", "phi", "w"),
@@ -187,14 +188,14 @@ def _of(component: str, values: Mapping[str, float]) -> dict[str, float]:
     return {k: v for k, v in values.items() if k in COMPONENTS[component].parameters}
 
 
-def experiment_truth(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, float]:
+def experiment_truth(experiment: Trial, truth: Mapping[str, float]) -> dict[str, float]:
     """The values an experiment runs with: the truth, its own overrides, its sidecar's (a
     J_cm as J_p), checked together (physics.settled)."""
     where = f"experiment {experiment.name}"
     return settled(overlay({**truth, **experiment.truth_overrides}, experiment.sidecar_parameters, where), where)
 
 
-def simulate_truth(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
+def simulate_truth(experiment: Trial, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
     """The true signals of an experiment at its sample times."""
     values = experiment_truth(experiment, truth)
     times = np.arange(int(round(experiment.duration / experiment.sample)) + 1) * experiment.sample
@@ -208,13 +209,13 @@ def simulate_truth(experiment: Experiment, truth: Mapping[str, float]) -> dict[s
                                   derivatives=lambda t: {"a": [_slope(experiment.drive, t)]})
         return {"time": times, "a": np.array([experiment.drive(t) for t in times]), **result}
     components = {"CurrentLoop": "CurrentLoop", "Cart": "Cart"}
-    connections = [Connection("CurrentLoop", "I_mean", "Cart", "I")]
+    connections = [Wire("CurrentLoop", "I_mean", "Cart", "I")]
     outputs = ["CurrentLoop.I", "Cart.x", "Cart.v"]
     if experiment.kind == "rig":
         components["Pendulum"] = "Pendulum"
-        connections.append(Connection("Cart", "a", "Pendulum", "a"))
+        connections.append(Wire("Cart", "a", "Pendulum", "a"))
         if back_drivable(values):
-            connections += [Connection("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha")]
+            connections += [Wire("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha")]
         outputs += ["Pendulum.phi", "Pendulum.w"]
     master = Master(components, connections, {name: _of(name, values) for name in components},
                     step=experiment.sample / TRUTH_SUBSTEPS)
@@ -227,7 +228,7 @@ def _slope(drive: Callable[[float], float], t: float, h: float = 1e-6) -> float:
     return (drive(t + h) - drive(t - h)) / (2 * h)
 
 
-def record(experiment: Experiment, truth: Mapping[str, float], sensors: Sensors) -> Recording:
+def record(experiment: Trial, truth: Mapping[str, float], sensors: Sensors) -> Recording:
     """Simulate an experiment and read it through the sensors."""
     true = simulate_truth(experiment, truth)
     signals = {name: sensors.read(name, true[name]) for name in experiment.recorded}
@@ -240,7 +241,7 @@ def record(experiment: Experiment, truth: Mapping[str, float], sensors: Sensors)
 
 
 def write_experiments(out: str | Path, truth: Mapping[str, float] | None = None, seed: int = 0,
-                      experiments: list[Experiment] | None = None, **about: object) -> list[Path]:
+                      experiments: list[Trial] | None = None, **about: object) -> list[Path]:
     """Write every experiment's recording into `out`, and the truth as truth.json (with
     the noise seed, each recording's own true values such as a release angle under
     "recordings", and `about`, e.g. how the truth was chosen)."""

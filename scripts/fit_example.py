@@ -12,12 +12,12 @@ import sys
 from pathlib import Path
 
 import pendfmu
-from pendfmu.virtual_rig import Experiment, steps, write_experiments
+from pendfmu.virtual_rig import Trial, steps, write_experiments
 
 
 def main(out: Path) -> pendfmu.FitResult:
     out.mkdir(parents=True, exist_ok=True)
-    experiment = Experiment("current-step", "current", 0.012, 20e-6, ("I_c", "I"),
+    experiment = Trial("current-step", "current", 0.012, 20e-6, ("I_c", "I"),
                             steps((0, 0.0), (1e-3, 2.5), (6e-3, 0.5)))
     write_experiments(out / "recordings", {"T_i": 0.45e-3, "dIdt_max": 2200.0}, seed=7, experiments=[experiment])
 

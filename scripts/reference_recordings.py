@@ -37,7 +37,7 @@ import numpy as np
 
 from pendfmu.parameters import write_parameters
 from pendfmu.recording import Recording, write_recording
-from pendfmu.virtual_rig import Experiment, Sensors, reference_truth, simulate_truth, standard_experiments
+from pendfmu.virtual_rig import Trial, Sensors, reference_truth, simulate_truth, standard_experiments
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import reference_rig  # noqa: E402  (tests/ holds the independent simulator)
@@ -46,7 +46,7 @@ STAGE_EXPERIMENTS = ("current-steps", "cart-startup-2A", "cart-startup-3A", "car
                      "pendulum-decay", "pendulum-stiction")
 
 
-def stage_experiments(release_angle: float | None = None) -> list[Experiment]:
+def stage_experiments(release_angle: float | None = None) -> list[Trial]:
     """The virtual rig's experiments of the three fitted stages, in its order (so the
     sensor noise is drawn as write_experiments draws it); `release_angle` (rad from
     hanging) replaces the free decay's 0.6 rad."""
@@ -57,7 +57,7 @@ def stage_experiments(release_angle: float | None = None) -> list[Experiment]:
     return experiments
 
 
-def sample_times(experiment: Experiment) -> np.ndarray:
+def sample_times(experiment: Trial) -> np.ndarray:
     """The sample times exactly as virtual_rig computes them."""
     return np.arange(int(round(experiment.duration / experiment.sample)) + 1) * experiment.sample
 
@@ -77,7 +77,7 @@ def reference_parameters(values: Mapping[str, float]) -> dict[str, float]:
     return {k: float(v) for k, v in values.items() if k in known}
 
 
-def reference_signals(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
+def reference_signals(experiment: Trial, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
     """The true signals of an experiment at its sample times, like
     ``virtual_rig.simulate_truth`` but by the reference simulator (stage experiments only).
 
@@ -88,7 +88,7 @@ def reference_signals(experiment: Experiment, truth: Mapping[str, float]) -> dic
         return _reference_signals(experiment, truth)
 
 
-def _reference_signals(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
+def _reference_signals(experiment: Trial, truth: Mapping[str, float]) -> dict[str, np.ndarray]:
     values = reference_parameters({**truth, **experiment.truth_overrides, **experiment.sidecar_parameters})
     times = sample_times(experiment)
     command = np.array([experiment.drive(t) for t in times])
@@ -110,7 +110,7 @@ def _reference_signals(experiment: Experiment, truth: Mapping[str, float]) -> di
     raise ValueError(f"{experiment.name}: kind {experiment.kind!r} is not a stage experiment")
 
 
-def record(experiment: Experiment, truth: Mapping[str, float], sensors: Sensors) -> Recording:
+def record(experiment: Trial, truth: Mapping[str, float], sensors: Sensors) -> Recording:
     """Simulate by the reference and read through the sensors: ``virtual_rig.record``
     with the other simulator (same signal order, so the same noise draws)."""
     true = reference_signals(experiment, truth)
@@ -124,7 +124,7 @@ def record(experiment: Experiment, truth: Mapping[str, float], sensors: Sensors)
 
 
 def write_reference_experiments(out: str | Path, truth: Mapping[str, float] | None = None, seed: int = 0,
-                                experiments: list[Experiment] | None = None, **extra: object) -> list[Path]:
+                                experiments: list[Trial] | None = None, **extra: object) -> list[Path]:
     """``virtual_rig.write_experiments`` by the reference simulator: the recordings,
     their sidecars and truth.json (with `extra` keys beside the seed)."""
     out = Path(out)
@@ -137,7 +137,7 @@ def write_reference_experiments(out: str | Path, truth: Mapping[str, float] | No
     return paths + [out / "truth.json"]
 
 
-def disagreement(experiment: Experiment, truth: Mapping[str, float]) -> dict[str, float]:
+def disagreement(experiment: Trial, truth: Mapping[str, float]) -> dict[str, float]:
     """Max |FMU - reference| of each sensed signal at the truth, in sensor steps (the
     current in ADC steps), before noise and quantization."""
     values = {**reference_truth(), **truth}

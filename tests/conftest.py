@@ -21,10 +21,10 @@ def built_fmus():
 def cart_recording(tmp_path_factory):
     """A short cart start-up (pendulum removed) on the virtual rig, with a truth away from
     the defaults: the small fit that the determinism, failure, interrupt and Dask tests share."""
-    from pendfmu.virtual_rig import Experiment, steps, write_experiments
+    from pendfmu.virtual_rig import Trial, steps, write_experiments
 
     out = tmp_path_factory.mktemp("cart-recording")
-    experiment = Experiment("cart", "cart", 0.4, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.02, 2.0), (0.25, 0.0)),
+    experiment = Trial("cart", "cart", 0.4, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.02, 2.0), (0.25, 0.0)),
                             sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"))
     write_experiments(out, CART_TRUTH, seed=9, experiments=[experiment])
     return out / "cart.csv"
@@ -35,16 +35,23 @@ CART_TRUTH = {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}
 
 def result_without_time(path):
     """A result file's content without its timings (fit.seconds and fit.uncertainty.seconds)
-    and the date and command line of its provenance, the only fields that differ between
-    runs (the command line names the run's own output file and worker count)."""
+    and the date, command line and workers of its provenance, the only fields that differ
+    between runs (the command line names the run's own output file; the workers and the Dask
+    scheduler say where the work ran, which changes no number)."""
     import json
 
     document = json.loads(path.read_text())
     document["fit"].pop("seconds")
     if isinstance(document["fit"].get("uncertainty"), dict):
         document["fit"]["uncertainty"].pop("seconds", None)
+    provenance = document.get("provenance", {})
     for key in ("date", "command"):
-        document.get("provenance", {}).pop(key, None)
+        provenance.pop(key, None)
+    where = ("workers", "scheduler")
+    for search in [provenance.get("request", {}).get("global_search", {}),
+                   *(stage.get("search", {}) for stage in provenance.get("stages", {}).values())]:
+        for key in where:
+            search.pop(key, None)
     return document
 
 

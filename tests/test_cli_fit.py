@@ -7,13 +7,13 @@ import json
 import pytest
 
 from pendfmu.cli import main
-from pendfmu.virtual_rig import Experiment, steps, write_experiments
+from pendfmu.virtual_rig import Trial, steps, write_experiments
 
 
 @pytest.fixture(scope="module")
 def current_recording(tmp_path_factory):
     out = tmp_path_factory.mktemp("cli-fit")
-    experiment = Experiment("steps", "current", 0.012, 20e-6, ("I_c", "I"),
+    experiment = Trial("steps", "current", 0.012, 20e-6, ("I_c", "I"),
                             steps((0, 0.0), (1e-3, 2.0), (6e-3, -1.0)))
     write_experiments(out, {"T_i": 0.5e-3, "dIdt_max": 2000.0, "a_h": 0.0}, seed=4, experiments=[experiment])
     return out / "steps.csv"
@@ -55,9 +55,9 @@ def test_a_model_that_misses_part_of_the_recording_is_reported(tmp_path):
     """Fitting the current loop without its ripple harmonic to a recording that has one: the
     residuals stand far above the ADC noise, and the result says so."""
     from pendfmu.fitting.identification import fit
-    from pendfmu.virtual_rig import Experiment, steps, write_experiments
+    from pendfmu.virtual_rig import Trial, steps, write_experiments
 
-    experiment = Experiment("rippled", "current", 0.012, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))
+    experiment = Trial("rippled", "current", 0.012, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))
     write_experiments(tmp_path, {"a_h": 0.05, "f_h": 3000.0}, seed=4, experiments=[experiment])
     without = fit("current", [tmp_path / "rippled.csv"], harmonic="off", seed=1, progress=False)
     assert any("times the sensor noise" in warning for warning in without.warnings)
@@ -89,7 +89,7 @@ def test_an_initial_states_box_follows_bounds(tmp_path):
 
     from pendfmu.fitting.identification import fit
 
-    experiment = Experiment("swing", "pendulum", 2.0, 2e-4, ("phi",), lambda t: 0.0,
+    experiment = Trial("swing", "pendulum", 2.0, 2e-4, ("phi",), lambda t: 0.0,
                             truth_overrides={"phi0": math.pi + 0.5, "w0": 0.0}, known_initial=("w",))
     write_experiments(tmp_path, {}, seed=2, experiments=[experiment])
     from pendfmu.fitting.optimizer import GlobalOptions

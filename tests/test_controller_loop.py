@@ -30,7 +30,7 @@ from scipy.integrate import solve_ivp
 from pendfmu.components import CART
 from pendfmu.fmubuild import ensure_fmu
 from pendfmu.simulator.master import ExternalInput, Master
-from pendfmu.ssp import Connection, Experiment, ParameterValue, System, describe_fmu, fmu_component, write_ssp
+from pendfmu.ssp import Connection, DefaultExperiment, ParameterValue, System, describe_fmu, fmu_component, write_ssp
 
 T_S = 1e-3
 CONTROLLER = {"T_s": T_S, "K_p": 80.0, "K_d": 3.6, "derivative_on_measurement": True, "n_d": 2, "delay": 1,
@@ -88,7 +88,7 @@ def loop_system(values=None) -> System:
     return System("ControlledCart", components,
                   [Connection.between("Controller.u", "Cart.I"), Connection.between("Cart.x", "Controller.y")],
                   parameters, {u: units[u] for u in sorted(used) if u in units},
-                  experiment=Experiment(0.0, 2.0, T_S),
+                  experiment=DefaultExperiment(0.0, 2.0, T_S),
                   description="A discrete PD position controller driving the cart")
 
 

@@ -187,7 +187,7 @@ def test_a_drive_with_missing_samples_is_refused_before_the_fit():
     current[3] = np.nan
     rec = Recording(None, t, {"I": current, "x": np.zeros_like(t)}, signal_info={"I": SignalInfo(missing="nan")})
     with pytest.raises(RecordingError, match=r"column 'I' drives cart and has 1 missing samples \(the first at "
-                                             r"t = 0.003 s\).*--window"):
+                                             r"t = 0.003 s\).*fit the windows between the gaps"):
         pendfmu.fit("cart", [rec], drive="I")
 
 
@@ -253,7 +253,7 @@ def test_bounds_of_a_recording_own_parameter_are_used_and_unknown_names_refused(
     free = stage_free_parameters("cart", [experiment], None, [], {"x0": (-0.1, 0.1)}, values)
     own = [p for p in free if p.experiment]
     assert [(p.name, p.low, p.high) for p in own] == [("x0", -0.1, 0.1)]
-    with pytest.raises(BadInput, match="bounds for 'v0', which this fit does not estimate"):
+    with pytest.raises(BadInput, match="bounds: 'v0' is not estimated by the cart stage"):
         stage_free_parameters("cart", [experiment], None, [], {"v0": (-1, 1)}, values)
 
 
@@ -286,7 +286,7 @@ def test_a_run_the_replay_cannot_follow_gets_a_hint_to_segment_it():
     rec = Recording(None, t, {"phi": held}, signal_info={"phi": SignalInfo(step)})
     fallen = pendfmu.fit("pendulum", [rec], fix=["k_fwp", "T_Kp", "T_Sp"], uncertainty="jacobian",
                          global_search=OPTIONS)
-    assert any("drifts away from the recording" in w and "--segment" in w and "fit --system" in w
+    assert any("drifts away from the recording" in w and "in segments" in w and "an SSP system" in w
                for w in fallen.warnings), fallen.warnings
     current = smooth_current(t) + 1.0
     pushed = np.round(cart_run(t, current, {"F_Oc": 3.0}) / STEP_X) * STEP_X

@@ -5,6 +5,8 @@ instances across generations, and a lost worker loses no candidates."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 distributed = pytest.importorskip("distributed")
@@ -40,6 +42,9 @@ def test_dask_cluster_gives_the_same_result_as_local_processes(cluster, cart_rec
     assert main(command + ["--out", str(tmp_path / "dask.json"), "--scheduler", cluster.scheduler_address]) == 0
     assert result_without_time(tmp_path / "dask.json") == result_without_time(tmp_path / "local.json")
     assert result_without_time(tmp_path / "dask.json")["parameters"]["F_Kc"] == pytest.approx(7.0, rel=0.03)
+    # --scheduler applied, as the provenance records it (test_fit_options leaves it to this test)
+    dask = json.loads((tmp_path / "dask.json").read_text())["provenance"]["stages"]["cart"]["search"]
+    assert dask["scheduler"] == cluster.scheduler_address
 
 
 def test_workers_keep_their_fmu_instances_across_generations(cluster, cart_residuals):

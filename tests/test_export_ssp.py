@@ -20,7 +20,7 @@ import pytest
 
 from pendfmu.cli import main
 from pendfmu.ssp import read_ssp
-from pendfmu.virtual_rig import Experiment, steps, write_experiments
+from pendfmu.virtual_rig import Trial, steps, write_experiments
 from ssp_engines import OUTPUTS, available
 from test_ssp_tools import ENGINES, ETA, FORCE_LAG, GIVEN, H, STOP, drive, largest_difference, needs
 
@@ -32,7 +32,7 @@ TRUE_CURRENT_LOOP = {"T_i": 0.5e-3, "dIdt_max": 2000.0, "a_h": 0.0}
 def result(tmp_path_factory):
     """A result file as `pendfmu fit` writes it: the current loop fitted, the cart known."""
     folder = tmp_path_factory.mktemp("fit")
-    experiment = Experiment("steps", "current", 0.012, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0), (6e-3, -1.0)))
+    experiment = Trial("steps", "current", 0.012, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0), (6e-3, -1.0)))
     write_experiments(folder, TRUE_CURRENT_LOOP, seed=4, experiments=[experiment])
     known = folder / "known.json"
     known.write_text(json.dumps({"parameters": KNOWN}))

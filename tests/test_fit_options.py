@@ -22,7 +22,7 @@ import math
 import pytest
 
 from pendfmu.cli import main
-from pendfmu.virtual_rig import Experiment, steps, write_experiments
+from pendfmu.virtual_rig import Trial, steps, write_experiments
 
 # Every fit here: a global search of 2 generations of 2 candidates per parameter, Jacobian intervals.
 BASE = ["--generations", "2", "--population", "2", "--uncertainty", "jacobian"]
@@ -39,10 +39,10 @@ def setup(tmp_path_factory):
     root = tmp_path_factory.mktemp("fit-options")
     rig = root / "rig"
     experiments = [
-        Experiment("current-steps", "current", 0.008, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0), (5e-3, -1.0))),
-        Experiment("cart-startup", "cart", 0.4, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.02, 3.0), (0.2, 0.0)),
+        Trial("current-steps", "current", 0.008, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0), (5e-3, -1.0))),
+        Trial("cart-startup", "cart", 0.4, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.02, 3.0), (0.2, 0.0)),
                    sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v")),
-        Experiment("pendulum-decay", "pendulum", 1.2, 2e-4, ("a", "phi"), lambda t: 0.0,
+        Trial("pendulum-decay", "pendulum", 1.2, 2e-4, ("a", "phi"), lambda t: 0.0,
                    truth_overrides={"phi0": math.pi + 0.4, "w0": 0.0}, known_initial=("w",)),
     ]
     write_experiments(rig, {}, seed=3, experiments=experiments)

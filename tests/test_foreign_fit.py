@@ -117,12 +117,12 @@ def test_an_ssp_system_replays_as_the_rig_does(tmp_path, eta, overrides):
     from pendfmu.fmubuild import build_all
     from pendfmu.fmubuild.compiler import FMUS_DIR
     from pendfmu.ssp import rig_system, write_ssp
-    from pendfmu.virtual_rig import Experiment, steps, write_experiments
+    from pendfmu.virtual_rig import Trial, steps, write_experiments
 
     build_all()
     values = {"eta": eta, "k_fwc": 25.0}
     write_ssp(rig_system(eta, FMUS_DIR, values), tmp_path / "rig.ssp")
-    experiment = Experiment("step", "rig", 0.5, 2e-4, ("I_c", "I", "x", "phi"), steps((0, 0.0), (0.05, 1.5)),
+    experiment = Trial("step", "rig", 0.5, 2e-4, ("I_c", "I", "x", "phi"), steps((0, 0.0), (0.05, 1.5)),
                             truth_overrides=overrides, known_initial=("x", "v", "phi", "w"))
     write_experiments(tmp_path, values, seed=1, experiments=[experiment])
     (tmp_path / "p.json").write_text(json.dumps({"parameters": values}))

@@ -368,7 +368,7 @@ def test_the_stages_fit_the_extras_stribeck_in_its_decades_offsets_with_bounds(c
     size only the rig knows, so the fit asks for --bounds and names the option."""
     from pendfmu.components import rig_defaults
     from pendfmu.fitting.stages import make_experiment, stage_free_parameters
-    from pendfmu.parameters import ParameterFileError
+    from pendfmu.errors import OptionError
     from pendfmu.recording import read_recording
 
     values = rig_defaults()
@@ -382,5 +382,5 @@ def test_the_stages_fit_the_extras_stribeck_in_its_decades_offsets_with_bounds(c
     assert (free["F_Sc"].relative_to, free["F_Sc"].low, free["F_Sc"].high) == ("F_Kc", 0.1, 10.0)
     plain = {p.name: p for p in stage_free_parameters("cart", experiments, None, [], {}, values)}
     assert (plain["F_Sc"].relative_to, plain["F_Sc"].low, plain["F_Sc"].high) == ("F_Kc", 1.0, 10.0)
-    with pytest.raises(ParameterFileError, match="--bounds dF_Kc=LOW:HIGH"):
+    with pytest.raises(OptionError, match="dF_Kc: no search box of its own; give one: dF_Kc=LOW:HIGH"):
         stage_free_parameters("cart", experiments, ["dF_Kc"], [], {}, values)

@@ -35,7 +35,7 @@ from pendfmu.parameters import INITIAL_STATE_PARAMETERS
 from pendfmu.report.content import fitted_law, friction_curve
 from pendfmu.report.figures import friction_figure, write_friction_figures
 from pendfmu.simulator.component import unpacked_fmu
-from pendfmu.virtual_rig import Experiment, steps, write_experiments
+from pendfmu.virtual_rig import Trial, steps, write_experiments
 
 CART_BASE = {"m_p": 0.0}  # the cart alone: its drive is eta k_M k_D I
 CART_CASES = {
@@ -230,7 +230,7 @@ def cart_fit(tmp_path_factory):
     Coulomb friction separate), from a start away from the truth (3 s)."""
     out = tmp_path_factory.mktemp("stribeck-offset")
     drive = steps((0, 0.0), (0.02, 1.2), (0.2, 2.0), (0.3, -2.0), (0.45, 0.0))
-    experiment = Experiment("cart", "cart", 0.6, 2e-4, ("I_c", "I", "x"), drive, sidecar_parameters={"m_p": 0.0},
+    experiment = Trial("cart", "cart", 0.6, 2e-4, ("I_c", "I", "x"), drive, sidecar_parameters={"m_p": 0.0},
                             known_initial=("x", "v"))
     write_experiments(out, FIT_CART, seed=4, experiments=[experiment])
     start = {**FIT_CART, "k_fwc": 24.0, "F_Sc": 9.0, "v_Sc": 0.02, "F_Oc": 0.5}
@@ -242,7 +242,7 @@ def cart_fit(tmp_path_factory):
 def pendulum_fit(tmp_path_factory):
     """A short free decay with air drag, fitted with k_dp free (7 s)."""
     out = tmp_path_factory.mktemp("drag")
-    experiment = Experiment("decay", "pendulum", 4.0, 2e-4, ("phi",), lambda t: 0.0,
+    experiment = Trial("decay", "pendulum", 4.0, 2e-4, ("phi",), lambda t: 0.0,
                             truth_overrides={"phi0": math.pi + 1.0, "w0": 0.0}, known_initial=("phi", "w"))
     write_experiments(out, FIT_PENDULUM, seed=5, experiments=[experiment])
     return pendfmu.fit("pendulum", [out / "decay.csv"], {**FIT_PENDULUM, "k_dp": 1e-4}, free=["k_dp"],

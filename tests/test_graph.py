@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
+from pendfmu.simulator.graph import Wire, algebraic_loops, stepping_order
 from pendfmu.simulator.master import Master, feedthrough_of
 
-ONE_WAY = [Connection("CurrentLoop", "I_mean", "Cart", "I"), Connection("Cart", "a", "Pendulum", "a")]
-BACK = ONE_WAY + [Connection("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha")]
+ONE_WAY = [Wire("CurrentLoop", "I_mean", "Cart", "I"), Wire("Cart", "a", "Pendulum", "a")]
+BACK = ONE_WAY + [Wire("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha")]
 RIG = ["Pendulum", "Cart", "CurrentLoop"]
 
 
@@ -35,7 +35,7 @@ def test_algebraic_loop_runs_through_accelerations_only():
 def test_a_cycle_without_feedthrough_is_coupled_but_no_algebraic_loop():
     """phi and w are states: the pendulum feeding only them back is no algebraic loop."""
     feedthrough = {name: feedthrough_of(name) for name in RIG}
-    partial = ONE_WAY + [Connection("Pendulum", "phi", "Cart", "phi")]
+    partial = ONE_WAY + [Wire("Pendulum", "phi", "Cart", "phi")]
     assert algebraic_loops(partial, feedthrough) == []
     assert stepping_order(RIG, partial) == [["CurrentLoop"], ["Cart", "Pendulum"]]
 
@@ -44,7 +44,7 @@ def test_master_rejects_unknown_connection_ends():
     import pytest
 
     with pytest.raises(ValueError, match="Cart has no input 'acc'"):
-        Master({"Cart": "Cart", "Pendulum": "Pendulum"}, [Connection("Pendulum", "alpha", "Cart", "acc")])
+        Master({"Cart": "Cart", "Pendulum": "Pendulum"}, [Wire("Pendulum", "alpha", "Cart", "acc")])
     with pytest.raises(ValueError, match="more than one output"):
         Master({"Cart": "Cart", "Pendulum": "Pendulum", "CurrentLoop": "CurrentLoop"},
-               [Connection("CurrentLoop", "I", "Cart", "I"), Connection("Pendulum", "w", "Cart", "I")])
+               [Wire("CurrentLoop", "I", "Cart", "I"), Wire("Pendulum", "w", "Cart", "I")])

@@ -15,11 +15,11 @@ import time
 from conftest import CART_TRUTH, result_without_time
 
 from pendfmu.cli import main
-from pendfmu.virtual_rig import Experiment, steps, write_experiments
+from pendfmu.virtual_rig import Trial, steps, write_experiments
 
 
 def cart_experiment(name, duration, current):
-    return Experiment(name, "cart", duration, 2e-4, ("I_c", "I", "x"),
+    return Trial(name, "cart", duration, 2e-4, ("I_c", "I", "x"),
                       steps((0, 0.0), (0.02, current), (duration * 0.6, 0.0)),
                       sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v"))
 

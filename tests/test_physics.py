@@ -30,10 +30,10 @@ def decay(tmp_path_factory):
     """A short free decay of the virtual rig (its sidecar sets nothing)."""
     import math
 
-    from pendfmu.virtual_rig import Experiment, write_experiments
+    from pendfmu.virtual_rig import Trial, write_experiments
 
     out = tmp_path_factory.mktemp("decay")
-    experiment = Experiment("decay", "pendulum", 3.0, 2e-3, ("phi",), lambda t: 0.0,
+    experiment = Trial("decay", "pendulum", 3.0, 2e-3, ("phi",), lambda t: 0.0,
                             truth_overrides={"phi0": math.pi + 0.5, "w0": 0.0}, known_initial=("w",))
     write_experiments(out, {"k_fwp": 2e-3}, seed=4, experiments=[experiment])
     return out / "decay.csv"

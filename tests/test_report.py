@@ -24,7 +24,7 @@ from pendfmu.report import write_report
 from pendfmu.report.figures import friction_figure
 from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult
 from pendfmu.friction import PENDULUM
-from pendfmu.virtual_rig import Experiment, steps, write_experiments
+from pendfmu.virtual_rig import Trial, steps, write_experiments
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 VOID = {"meta", "img", "br", "hr", "link", "input", "col", "source", "wbr"}
@@ -270,7 +270,7 @@ def test_a_stage_without_recordings_or_estimates_still_reports(tmp_path):
     assert not page.errors and page.images == []
 
 
-SHORT_CURRENT = [Experiment("current", "current", 0.004, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))]
+SHORT_CURRENT = [Trial("current", "current", 0.004, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))]
 
 
 def test_report_of_a_real_current_fit(tmp_path):

@@ -113,7 +113,18 @@ SUBMODULE_APIS = {
     "pendfmu.export": ["ExportPlan", "START_FILE", "export_all", "export_result", "plan_export", "write_export"],
     "pendfmu.fmubuild": ["BuildError", "FMI_VERSIONS", "build_all", "build_fmu", "compute_guid", "fmu_path",
                          "ensure_fmu"],
+    "pendfmu.recording": ["INITIAL_NAMES", "MAT_TIME_NAMES", "MAX_BYTES", "PARAMETER_NAMES", "QUANTIZERS", "RIG",
+                          "SIGNAL_NAMES", "Recording", "RecordingError", "SignalInfo", "Vocabulary",
+                          "check_output_path", "quantize", "read_recording", "write_recording", "write_signals"],
     "pendfmu.report": ["write_report", "write_comparison"],
+    "pendfmu.simulator": ["ComponentFMU", "FMUError", "ParameterError", "unpacked_fmu"],
+    "pendfmu.ssp": ["Connection", "Connector", "DefaultExperiment", "FmuComponent", "ParameterSet", "ParameterValue",
+                    "SHARED_PARAMETERS", "SspError", "System", "Unit", "check_system", "describe_fmu",
+                    "fmu_component", "read_ssd", "read_ssp", "read_ssv", "rig_connections", "rig_system", "schema_dir",
+                    "write_ssd", "write_ssp", "write_ssv"],
+    "pendfmu.testing": ["FMURunner", "Run", "assert_calls_rejected", "assert_converges", "assert_deterministic",
+                        "assert_finite_over_inputs", "assert_matches", "assert_reset_restores", "assert_state_rollback",
+                        "assert_valid", "fmu_runner", "fmus_and_interfaces"],
 }
 
 
@@ -134,3 +145,21 @@ def test_a_missing_compiler_is_exit_5_in_one_line(tmp_path, monkeypatch, capsys)
     assert main(["build", "--out", str(tmp_path / "fmus"), "--fmi", "2", "--force"]) == 5
     err = capsys.readouterr().err
     assert "cannot build the FMUs: no C compiler" in err and "no-such-cc" in err and len(err.splitlines()) == 1
+
+
+def test_every_error_pendfmu_raises_is_in_the_error_tree():
+    """The command line maps PendfmuError's branches to exit codes: an exception class
+    outside the tree reads as an internal failure (BuildError once did, for a missing
+    compiler). Private helpers (a leading underscore) never leave their module."""
+    from pendfmu.errors import PendfmuError
+
+    outside = []
+    for name in modules():
+        if name.endswith("__main__"):
+            continue  # importing it runs the command line
+        module = importlib.import_module(name)
+        for attribute, value in vars(module).items():
+            if (isinstance(value, type) and issubclass(value, BaseException) and value.__module__ == name
+                    and not attribute.startswith("_") and not issubclass(value, PendfmuError)):
+                outside.append(f"{name}.{attribute}")
+    assert outside == []

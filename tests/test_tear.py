@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from pendfmu.simulator.graph import Connection, tear_of
+from pendfmu.simulator.graph import Wire, tear_of
 from pendfmu.simulator.tear import CONTINUE, CONVERGED, EXHAUSTED, JUMP, JUMP_RESOLUTION, TearSolver
 
 
@@ -96,8 +96,8 @@ def test_random_jumps_and_kinks_finish_within_the_default_budget(seed):
         assert outcome in (CONVERGED, JUMP) and len(evaluated) <= 32
 
 
-BACK = [Connection("CurrentLoop", "I_mean", "Cart", "I"), Connection("Cart", "a", "Pendulum", "a"),
-        *(Connection("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha"))]
+BACK = [Wire("CurrentLoop", "I_mean", "Cart", "I"), Wire("Cart", "a", "Pendulum", "a"),
+        *(Wire("Pendulum", v, "Cart", v) for v in ("phi", "w", "alpha"))]
 
 
 def test_the_rig_is_torn_at_the_carts_acceleration_and_the_pendulum_steps_first():
@@ -105,12 +105,12 @@ def test_the_rig_is_torn_at_the_carts_acceleration_and_the_pendulum_steps_first(
 
 
 def test_the_first_output_that_leaves_no_cycle_tears_a_ring():
-    ring = [Connection("A", "y", "B", "u"), Connection("B", "y", "C", "u"), Connection("C", "y", "A", "u"),
-            Connection("B", "z", "A", "v")]
+    ring = [Wire("A", "y", "B", "u"), Wire("B", "y", "C", "u"), Wire("C", "y", "A", "u"),
+            Wire("B", "z", "A", "v")]
     assert tear_of(["A", "B", "C"], ring) == (("A", "y"), ["B", "C", "A"])
 
 
 def test_a_group_that_no_single_signal_tears_has_no_tear():
-    crossed = [Connection("A", "y", "B", "u"), Connection("B", "y", "A", "u"), Connection("A", "z", "C", "u"),
-               Connection("C", "y", "A", "v"), Connection("B", "z", "C", "v"), Connection("C", "z", "B", "v")]
+    crossed = [Wire("A", "y", "B", "u"), Wire("B", "y", "A", "u"), Wire("A", "z", "C", "u"),
+               Wire("C", "y", "A", "v"), Wire("B", "z", "C", "v"), Wire("C", "z", "B", "v")]
     assert tear_of(["A", "B", "C"], crossed) is None

@@ -10,15 +10,15 @@ import pytest
 
 from pendfmu.components import COMPONENTS, rig_defaults
 from pendfmu.recording import read_recording
-from pendfmu.virtual_rig import (ADC_BITS, ADC_RANGE, RIPPLE, Experiment, reference_truth, standard_experiments,
+from pendfmu.virtual_rig import (ADC_BITS, ADC_RANGE, RIPPLE, Trial, reference_truth, standard_experiments,
                                  steps, write_experiments)
 
 SHORT = [
-    Experiment("current", "current", 0.004, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0))),
-    Experiment("cart", "cart", 0.3, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.01, 2.0)),
+    Trial("current", "current", 0.004, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0))),
+    Trial("cart", "cart", 0.3, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.01, 2.0)),
                sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v")),
-    Experiment("decay", "pendulum", 1.0, 2e-4, ("phi",), lambda t: 0.0, truth_overrides={"phi0": math.pi + 0.6}),
-    Experiment("rig", "rig", 0.3, 2e-4, ("I_c", "x", "phi"), steps((0, 0.0), (0.01, 2.0)),
+    Trial("decay", "pendulum", 1.0, 2e-4, ("phi",), lambda t: 0.0, truth_overrides={"phi0": math.pi + 0.6}),
+    Trial("rig", "rig", 0.3, 2e-4, ("I_c", "x", "phi"), steps((0, 0.0), (0.01, 2.0)),
                truth_overrides={"phi0": math.pi + 0.1}, known_initial=("phi",)),
 ]
 

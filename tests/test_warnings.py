@@ -23,13 +23,13 @@ from pendfmu.fitting.plausibility import check_experiment
 from pendfmu.recording import read_recording
 from pendfmu.fitting.result import Estimate, FitResult
 from pendfmu.fitting.statistics import interval
-from pendfmu.virtual_rig import Experiment, write_experiments
+from pendfmu.virtual_rig import Trial, write_experiments
 
 
 @pytest.fixture(scope="module")
 def decay_recording(tmp_path_factory):
     out = tmp_path_factory.mktemp("decay")
-    experiment = Experiment("decay", "pendulum", 4.0, 2e-4, ("phi",), lambda t: 0.0,
+    experiment = Trial("decay", "pendulum", 4.0, 2e-4, ("phi",), lambda t: 0.0,
                             truth_overrides={"phi0": math.pi + 0.5, "w0": 0.0}, known_initial=("w",))
     write_experiments(out, {}, seed=3, experiments=[experiment])
     return out / "decay.csv"

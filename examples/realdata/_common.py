@@ -105,6 +105,11 @@ def write_inputs(recordings, params: dict[str, float], folder: Path) -> list[str
     return [*files, str(folder / "params.json")]
 
 
+def seeded(arguments) -> list[str]:
+    """The global search's seed, where there is a global search to seed (--no-global has none)."""
+    return [] if "--no-global" in arguments else ["--seed", "0"]
+
+
 def fit_arguments(stage, recordings, params: dict[str, float], options, folder: Path) -> list[str]:
     """``fit STAGE RECORDING... --params P OPTIONS``, the recordings and parameters
     written into `folder` (the command up to --out and --seed). `stage` is a stage's name,
@@ -150,7 +155,7 @@ def run_example(convert, argv: list[str] | None = None, finish=None) -> int:
     outdir = Path(argv[0])
     out = outdir / "result.json"
     arguments = fit_arguments(convert.STAGE, *convert.build(), convert.OPTIONS, outdir)
-    command = [*arguments, "--out", str(out), "--seed", "0", *convert.RUN_OPTIONS]
+    command = [*arguments, "--out", str(out), *seeded(arguments), *convert.RUN_OPTIONS]
     (outdir / "command.txt").write_text("pendfmu " + shlex.join(command) + "\n")
     print("pendfmu " + shlex.join(command), flush=True)
     code = main(command)

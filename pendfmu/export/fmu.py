@@ -31,6 +31,7 @@ from pathlib import Path
 from lxml import etree
 
 from pendfmu import __version__
+from pendfmu.errors import UsageError
 from pendfmu.fmubuild import ensure_fmu
 
 MODEL_DESCRIPTION = "modelDescription.xml"
@@ -88,12 +89,12 @@ def parameterized_description(original: bytes, values: Mapping[str, float], guid
     for name, causality, real, _ in _variables(root):
         if name in values:
             if causality != "parameter" or real is None:
-                raise ValueError(f"{root.get('modelName')}: {name} is not a Real parameter")
+                raise UsageError(f"{root.get('modelName')}: {name} is not a Real parameter")
             real.set("start", repr(float(values[name])))
             found.add(name)
     missing = set(values) - found
     if missing:
-        raise ValueError(f"{root.get('modelName')} has no parameter {', '.join(sorted(missing))}")
+        raise UsageError(f"{root.get('modelName')} has no parameter {', '.join(sorted(missing))}")
     data = etree.tostring(root.getroottree(), xml_declaration=True, encoding="UTF-8")
     return data if data.endswith(b"\n") else data + b"\n"
 

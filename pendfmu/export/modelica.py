@@ -25,6 +25,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from pendfmu import __version__
+from pendfmu.errors import UsageError
 from pendfmu.components import COMPONENTS
 from pendfmu.export.plan import ExportPlan, refusal
 
@@ -119,7 +120,7 @@ def _rig_level(plan: ExportPlan) -> dict[str, float]:
         for name, value in plan.start_values(component).items():
             if name in RIG_LEVEL:
                 if found.setdefault(name, value) != value:
-                    raise ValueError(f"{name} differs between components: {found[name]!r} and {value!r}")
+                    raise UsageError(f"{name} differs between components: {found[name]!r} and {value!r}")
     return {name: found[name] for name in RIG_LEVEL if name in found}
 
 

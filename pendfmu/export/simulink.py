@@ -78,7 +78,7 @@ def block_values(component: str, fmu: str | Path, values: Mapping[str, float], g
     declared = {v.name: v for v in md.modelVariables}
     unknown = [n for n in values if n not in declared]
     if unknown:
-        raise ValueError(f"{fmu}: no variable {', '.join(unknown)}")
+        raise BadInput(f"{fmu}: no variable {', '.join(unknown)}")
     given = set(given)
     names = [v.name for v in md.modelVariables if v.name in values]
     units = [declared[n].unit or (declared[n].declaredType.unit if declared[n].declaredType else None) or ""

@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.errors import UsageError
+from pendfmu.errors import PendfmuError, UsageError
 
 
-class Interrupted(Exception):
+class Interrupted(PendfmuError):
     """A fit stopped by the user; carries the best parameter values found so far."""
 
     def __init__(self, parameters: dict[str, float], stage: str):

@@ -34,7 +34,7 @@ from pendfmu.friction import DERIVED_BOUNDS, FRICTION_BOUNDS, STICTION_OF, STICT
 from pendfmu.parameters import INITIAL_STATE_PARAMETERS, recording_values
 from pendfmu.recording import Recording, RecordingError
 from pendfmu.recording.measurement import default_box, is_measurement, measurement_signal
-from pendfmu.simulator.graph import Connection
+from pendfmu.simulator.graph import Wire
 from pendfmu.simulator.model import Model
 from pendfmu.suggest import did_you_mean
 
@@ -133,7 +133,7 @@ def stage_setup(stage: str, drive: str) -> Setup:
     coarse = {"solver_step": spec.coarse_solver_step} if spec.coarse_solver_step else {}
     if stage == "cart" and drive == "I_c":
         model = Model.of_components("cart", {"CurrentLoop": "CurrentLoop", "Cart": "Cart"},
-                                    [Connection("CurrentLoop", "I_mean", "Cart", "I")])
+                                    [Wire("CurrentLoop", "I_mean", "Cart", "I")])
         return Setup(stage, model, {"I_c": ("I_c", "hold")}, match, estimated, settling_current,
                      spec.coarse_decimate, coarse, spec.starts)
     model = Model.of_components(stage, {spec.component: spec.component})

@@ -33,6 +33,8 @@ from __future__ import annotations
 import numpy as np
 import orjson
 
+from pendfmu.recording.schema import RecordingError
+
 _COMMA, _NEWLINE = ord(","), ord("\n")
 
 ROWS_PER_BLOCK = 1024
@@ -51,7 +53,7 @@ def header_line(names) -> bytes:
     or of the usual tools should have to guess)."""
     for name in names:
         if not name or any(c in name for c in _FORBIDDEN_IN_NAMES) or name != name.strip():
-            raise ValueError(f"column name {name!r} cannot be written as a CSV header: it must be non-empty, "
+            raise RecordingError(f"column name {name!r} cannot be written as a CSV header: it must be non-empty, "
                              f"without commas, quotes, line breaks or surrounding spaces")
     return ",".join(names).encode("utf-8") + b"\n"
 
@@ -61,7 +63,7 @@ def format_rows(table: np.ndarray) -> bytes | memoryview:
     newline; a bytes-like object (a view, so the 10 MB of a long run are not copied)."""
     table = np.ascontiguousarray(table, dtype=np.float64)
     if table.ndim != 2:
-        raise ValueError(f"format_rows needs a 2-D table, got shape {table.shape}")
+        raise RecordingError(f"format_rows needs a 2-D table, got shape {table.shape}")
     rows, width = table.shape
     if rows == 0:
         return b""

@@ -178,7 +178,7 @@ def quantize(values, resolution: float | None, quantizer: str = "round") -> np.n
         return values.copy()
     problem = _resolution_problem(resolution) or _quantizer_problem(quantizer)
     if problem:
-        raise ValueError(f"quantize: {problem}")
+        raise RecordingError(f"quantize: {problem}")
     steps = np.rint(values / resolution) if quantizer == "round" else np.floor(values / resolution)
     return resolution * steps
 

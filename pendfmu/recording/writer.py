@@ -63,13 +63,13 @@ def write_signals(path: str | os.PathLike, time, columns: Mapping[str, object]) 
     suffix = check_output_path(path)
     time = _vector(time, "time")
     if "time" in columns:
-        raise ValueError("a column named 'time' would repeat the time vector; give the columns other names")
+        raise RecordingError("a column named 'time' would repeat the time vector; give the columns other names")
     table = np.empty((len(time), 1 + len(columns)))
     table[:, 0] = time
     for j, (name, values) in enumerate(columns.items(), start=1):
         values = _vector(values, repr(name))
         if len(values) != len(time):
-            raise ValueError(f"column {name!r} has {len(values)} values, time has {len(time)}")
+            raise RecordingError(f"column {name!r} has {len(values)} values, time has {len(time)}")
         table[:, j] = values
     names = ["time", *columns]
     if suffix == ".csv":
@@ -152,5 +152,5 @@ def _write_atomic(path: Path, chunks, writer=None) -> None:
 def _vector(values, label: str) -> np.ndarray:
     array = np.asarray(values, dtype=np.float64)
     if array.ndim != 1:
-        raise ValueError(f"{label} must be a 1-D array, got shape {array.shape}")
+        raise RecordingError(f"{label} must be a 1-D array, got shape {array.shape}")
     return array

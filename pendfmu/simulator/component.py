@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from pendfmu.errors import BadInput, FMUError
-from pendfmu.components import ALL_COMPONENTS as COMPONENTS
+from pendfmu.components import ALL_COMPONENTS
 from pendfmu.simulator.fmi import CheckedFMU, instantiate_fmu, unpacked_fmu
 from pendfmu.simulator.native import unit_of
 
@@ -85,10 +85,10 @@ class ComponentFMU:
         if not str(md.fmiVersion).startswith("2."):
             raise ParameterError(f"{fmu or name}: FMI {md.fmiVersion}; pendfmu's simulator co-simulates FMI 2.0 FMUs")
         kind = md.coSimulation.modelIdentifier
-        if fmu is None and kind not in COMPONENTS:
-            raise ParameterError(f"{name}: {kind!r} is not a pendfmu component ({', '.join(COMPONENTS)})")
+        if fmu is None and kind not in ALL_COMPONENTS:
+            raise ParameterError(f"{name}: {kind!r} is not a pendfmu component ({', '.join(ALL_COMPONENTS)})")
         self.name = instance or name
-        self.component = COMPONENTS.get(kind)  # None: an FMU pendfmu did not make
+        self.component = ALL_COMPONENTS.get(kind)  # None: an FMU pendfmu did not make
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.types = {v.name: v.type for v in md.modelVariables}
         self.parameter_names = (list(self.component.parameters) if self.component else

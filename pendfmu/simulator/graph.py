@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 
 @dataclass(frozen=True)
-class Connection:
+class Wire:
     """An output of one component feeding an input of another."""
 
     source: str  # component name
@@ -62,7 +62,7 @@ def strongly_connected(nodes: Iterable[str], edges: Mapping[str, set[str]]) -> l
     return groups
 
 
-def stepping_order(components: Iterable[str], connections: Iterable[Connection]) -> list[list[str]]:
+def stepping_order(components: Iterable[str], connections: Iterable[Wire]) -> list[list[str]]:
     """Groups of components in the order they step; a group of several is coupled."""
     components = list(components)
     edges: dict[str, set[str]] = {name: set() for name in components}
@@ -71,7 +71,7 @@ def stepping_order(components: Iterable[str], connections: Iterable[Connection])
     return list(reversed(strongly_connected(components, edges)))
 
 
-def algebraic_loops(connections: Iterable[Connection],
+def algebraic_loops(connections: Iterable[Wire],
                     feedthrough: Mapping[str, Mapping[str, set[str]]]) -> list[list[str]]:
     """Cycles of direct feedthrough, as lists of 'Component.variable' in signal order.
 
@@ -103,7 +103,7 @@ def _cycle_order(group: list[str], edges: Mapping[str, set[str]]) -> list[str]:
         path.append(following[0])
 
 
-def tear_of(group: list[str], connections: Iterable[Connection]) -> tuple[tuple[str, str], list[str]] | None:
+def tear_of(group: list[str], connections: Iterable[Wire]) -> tuple[tuple[str, str], list[str]] | None:
     """A single output of the coupled group whose connections, cut, leave the group's other
     internal connections without a cycle, and the members in the order they then step.
 

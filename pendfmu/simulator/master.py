@@ -28,11 +28,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pendfmu.errors import FMUError
+from pendfmu.errors import FMUError, UsageError
 from pendfmu.simulator.component import PROCESS_POOL, ComponentFMU, discrete_outputs, once_per_process, pooled_instance
 from pendfmu.simulator.coupled import CoupledSteps, CouplingError
 from pendfmu.simulator.fmi import unpacked_fmu
-from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order, tear_of
+from pendfmu.simulator.graph import Wire, algebraic_loops, stepping_order, tear_of
 
 
 @dataclass
@@ -45,7 +45,7 @@ class ExternalInput:
 
     def __post_init__(self) -> None:
         if self.interpolation not in ("hold", "linear"):
-            raise ValueError(f"interpolation must be 'hold' or 'linear', not {self.interpolation!r}")
+            raise UsageError(f"interpolation must be 'hold' or 'linear', not {self.interpolation!r}")
         self.times = np.asarray(self.times, dtype=float)
         self.values = np.asarray(self.values, dtype=float)
 
@@ -93,12 +93,12 @@ class Master(CoupledSteps):
     `parameters` maps instance names to their parameter values; `fmus` optionally maps
     instance names to FMU files to use instead of the ones built from source."""
 
-    def __init__(self, components: Mapping[str, str], connections: Sequence[Connection],
+    def __init__(self, components: Mapping[str, str], connections: Sequence[Wire],
                  parameters: Mapping[str, Mapping[str, float]] | None = None, step: float = 2e-4,
                  loop_tolerance: float = 1e-10, max_iterations: int = 30,
                  fmus: Mapping[str, str | Path] | None = None):
         if step <= 0:
-            raise ValueError(f"communication step must be positive, not {step}")
+            raise UsageError(f"communication step must be positive, not {step}")
         self.types = dict(components)
         self.fmus = dict(fmus or {})
         self.connections = list(connections)
@@ -136,7 +136,7 @@ class Master(CoupledSteps):
             components[name] = md.coSimulation.modelIdentifier
             fmus[name] = component.fmu
             parameters[name] = {key: float(value.value) for key, value in system.parameters.get(name, {}).items()}
-        connections = [Connection(c.start_element, c.start_connector, c.end_element, c.end_connector)
+        connections = [Wire(c.start_element, c.start_connector, c.end_element, c.end_connector)
                        for c in system.component_connections()]  # the system's own connectors are the caller's
         if system.experiment is not None and system.experiment.step_size and "step" not in options:
             options["step"] = system.experiment.step_size
@@ -146,14 +146,14 @@ class Master(CoupledSteps):
         for c in self.connections:
             for name, variable, causality in ((c.source, c.output, "output"), (c.target, c.input, "input")):
                 if name not in self.types:
-                    raise ValueError(f"connection {c}: no component {name!r}")
+                    raise UsageError(f"connection {c}: no component {name!r}")
                 _, md = unpacked_fmu(self.types[name], self.fmus.get(name))
                 found = {v.name: v.causality for v in md.modelVariables}
                 if found.get(variable) != causality:
-                    raise ValueError(f"connection {c}: {name} has no {causality} {variable!r}")
+                    raise UsageError(f"connection {c}: {name} has no {causality} {variable!r}")
         targets = [(c.target, c.input) for c in self.connections]
         if len(targets) != len(set(targets)):
-            raise ValueError("an input is connected to more than one output")
+            raise UsageError("an input is connected to more than one output")
 
     # ------------------------------------------------------------------ running
 
@@ -166,7 +166,7 @@ class Master(CoupledSteps):
         `engine` "native" runs the loop in C (fast), "python" in Python (the reference);
         both give bit-identical results."""
         if engine not in ("native", "python"):
-            raise ValueError(f"engine must be 'native' or 'python', not {engine!r}")
+            raise UsageError(f"engine must be 'native' or 'python', not {engine!r}")
         times = np.asarray(times, dtype=float)
         external = dict(external or {})
         for key in external:
@@ -213,7 +213,7 @@ class Master(CoupledSteps):
     def _split(self, qualified: str) -> tuple[str, str]:
         name, _, variable = qualified.partition(".")
         if name not in self.types or not variable:
-            raise ValueError(f"{qualified!r} is not 'Component.variable' of this system ({', '.join(self.types)})")
+            raise UsageError(f"{qualified!r} is not 'Component.variable' of this system ({', '.join(self.types)})")
         return name, variable
 
     def _run(self, fmus, times, outputs, external, labels) -> pd.DataFrame:
@@ -313,7 +313,7 @@ class Master(CoupledSteps):
                                 f"after {self.max_iterations} iterations (last relative change "
                                 f"{system.last_change:.3g})")
         if failure is Failure.TOO_MANY_PORTS:
-            raise ValueError(f"the native engine takes at most {MAX_PORTS} inputs per component; use engine='python'")
+            raise UsageError(f"the native engine takes at most {MAX_PORTS} inputs per component; use engine='python'")
         if failure is Failure.NO_MEMORY:  # as before: no unit to blame
             raise FMUError(f"the system at t = {system.fail_time:.9g} s: out of memory, or more connections than "
                            f"the native loop holds", time=system.fail_time)

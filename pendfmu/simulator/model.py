@@ -25,7 +25,7 @@ from pendfmu.ranges import outside
 from pendfmu.recording.schema import Vocabulary, WithMeasurements
 from pendfmu.simulator.component import once_per_process
 from pendfmu.simulator.fmi import unpacked_fmu
-from pendfmu.simulator.graph import Connection, algebraic_loops, stepping_order
+from pendfmu.simulator.graph import Wire, algebraic_loops, stepping_order
 from pendfmu.suggest import did_you_mean
 
 
@@ -77,7 +77,7 @@ class Model:
 
     name: str
     instances: dict[str, Instance]
-    connections: list[Connection] = field(default_factory=list)
+    connections: list[Wire] = field(default_factory=list)
     shared: bool = False  # pendfmu's rig: a bare parameter name sets every component having it
     # An SSP system's own connectors: causality ("input"/"output") -> name -> the ports it
     # feeds or reads. These names come first: they are the interface the system declares.
@@ -159,7 +159,7 @@ class Model:
             md = unpacked_fmu(name, component.fmu)[1]
             kind = (md.coSimulation or md.modelExchange).modelIdentifier
             instances[name] = Instance(name, kind, component.fmu)
-        connections = [Connection(c.start_element, c.start_connector, c.end_element, c.end_connector)
+        connections = [Wire(c.start_element, c.start_connector, c.end_element, c.end_connector)
                        for c in system.component_connections()]
         boundary = {kind: {name: [Port(*pair) for pair in pairs] for name, pairs in system.boundary(kind).items()}
                     for kind in ("input", "output")}
@@ -172,7 +172,7 @@ class Model:
         return model
 
     @classmethod
-    def of_components(cls, name: str, kinds: Mapping[str, str], connections: Sequence[Connection] = ()) -> Model:
+    def of_components(cls, name: str, kinds: Mapping[str, str], connections: Sequence[Wire] = ()) -> Model:
         """A model of pendfmu's own components (instance -> component type)."""
         return cls(name, {n: Instance(n, k) for n, k in kinds.items()}, list(connections), shared=True)
 

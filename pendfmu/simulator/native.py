@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendfmu.errors import UsageError
 from pendfmu.fmubuild.compiler import CFLAGS, FMUS_DIR, LIBRARY_SUFFIX, SOURCE_DIR, compile_library
 
 SOURCE = SOURCE_DIR / "runner" / "runner.c"
@@ -174,7 +175,7 @@ def run_single(unit: Unit, times: np.ndarray, input_vrs: list[int], inputs: np.n
 
     Returns (outputs n_points x n_outputs, index of a failing point or -1)."""
     if len(input_vrs) > MAX_PORTS:
-        raise ValueError(f"the native loop takes at most {MAX_PORTS} inputs")
+        raise UsageError(f"the native loop takes at most {MAX_PORTS} inputs")
     times = np.ascontiguousarray(times, dtype=float)
     inputs = np.ascontiguousarray(inputs, dtype=float).reshape(len(times), len(input_vrs))
     if slopes is not None:

@@ -18,14 +18,14 @@ from pendfmu.ssp.archive import read_ssp, write_ssp
 from pendfmu.ssp.check import check_system
 from pendfmu.ssp.fmu import describe_fmu, fmu_component
 from pendfmu.ssp.model import (
-    Connection, Connector, Experiment, FmuComponent, ParameterSet, ParameterValue, System, Unit,
+    Connection, Connector, DefaultExperiment, FmuComponent, ParameterSet, ParameterValue, System, Unit,
 )
 from pendfmu.ssp.rig import SHARED_PARAMETERS, rig_connections, rig_system
 from pendfmu.ssp.ssd import read_ssd, write_ssd
 from pendfmu.ssp.ssv import read_ssv, write_ssv
 
 __all__ = [
-    "Connection", "Connector", "Experiment", "FmuComponent", "ParameterSet", "ParameterValue",
+    "Connection", "Connector", "DefaultExperiment", "FmuComponent", "ParameterSet", "ParameterValue",
     "SHARED_PARAMETERS", "SspError", "System", "Unit", "check_system", "describe_fmu", "fmu_component",
     "read_ssd", "read_ssp", "read_ssv", "rig_connections", "rig_system", "schema_dir", "write_ssd",
     "write_ssp", "write_ssv",

@@ -39,7 +39,7 @@ from pendfmu.errors import BadInput
 from pendfmu.physics import J_CM, overlay, settled
 from pendfmu.ssp.fmu import FmuDescription, describe_fmu
 from pendfmu.suggest import did_you_mean
-from pendfmu.ssp.model import Connection, Connector, Experiment, FmuComponent, ParameterValue, System
+from pendfmu.ssp.model import Connection, Connector, DefaultExperiment, FmuComponent, ParameterValue, System
 
 _KINDS = {"Real": float, "Integer": int, "Boolean": bool}
 
@@ -95,7 +95,7 @@ def compose(components: Mapping[str, str | Path], connections: Sequence[str],
     used = {c.unit for d in fmus.values() for c in d.connectors if c.unit}
     units = {u: d.units[u] for d in fmus.values() for u in sorted(used) if u in d.units}
     connectors, boundary = free_inputs(parts, wires)
-    return System(name, parts, wires + boundary, values, units, experiment=Experiment(0.0, None, step_size),
+    return System(name, parts, wires + boundary, values, units, experiment=DefaultExperiment(0.0, None, step_size),
                   description=description or f"{', '.join(parts)} composed by pendfmu", connectors=connectors)
 
 

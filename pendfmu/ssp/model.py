@@ -137,7 +137,7 @@ class ParameterSet:
 
 
 @dataclass(frozen=True)
-class Experiment:
+class DefaultExperiment:
     """Default experiment: SSP's DefaultExperiment has start and stop time; the
     communication step size has no place in SSP 1.0 and goes into a pendfmu annotation."""
 
@@ -164,7 +164,7 @@ class System:
     parameters: dict[str, dict[str, ParameterValue]] = field(default_factory=dict)
     units: dict[str, Unit] = field(default_factory=dict)
     parameter_set: str = "parameters"
-    experiment: Experiment | None = None
+    experiment: DefaultExperiment | None = None
     description: str = ""
     connectors: tuple[Connector, ...] = ()
 

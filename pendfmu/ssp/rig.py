@@ -7,7 +7,7 @@ from pathlib import Path
 from pendfmu.components import COMPONENTS, ETA_BACK_FROM_ETA, back_drive_efficiency
 from pendfmu.ranges import outside
 from pendfmu.ssp.fmu import FmuDescription, describe_fmu
-from pendfmu.ssp.model import Connection, Connector, Experiment, FmuComponent, ParameterValue, System
+from pendfmu.ssp.model import Connection, Connector, DefaultExperiment, FmuComponent, ParameterValue, System
 
 RIG_COMPONENTS = ("CurrentLoop", "Cart", "Pendulum")
 
@@ -140,6 +140,6 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
         parameters=rig_parameters(eta, parameters, fmus),
         units=units,
         parameter_set=parameter_set,
-        experiment=Experiment(start_time, stop_time, step_size),
+        experiment=DefaultExperiment(start_time, stop_time, step_size),
         description=f"Inverted-pendulum rig: current loop, cart on a {kind} lead screw (eta={eta!r}), pendulum",
     )

@@ -42,7 +42,7 @@ from pendfmu.ssp._xml import (
 )
 from pendfmu.ssp.check import check_system
 from pendfmu.ssp.fmu import check_against_fmu
-from pendfmu.ssp.model import Connection, Connector, Experiment, FmuComponent, ParameterValue, System
+from pendfmu.ssp.model import Connection, Connector, DefaultExperiment, FmuComponent, ParameterValue, System
 from pendfmu.ssp.ssv import read_parameter_set, write_ssv
 from pendfmu.ssp.vendor import OMS_NS, omsimulator_annotation
 
@@ -80,7 +80,7 @@ def _component_element(system: System, component: FmuComponent) -> etree._Elemen
     return el
 
 
-def _experiment_element(experiment: Experiment) -> etree._Element:
+def _experiment_element(experiment: DefaultExperiment) -> etree._Element:
     """ssd:DefaultExperiment, with the step size in a pendfmu annotation."""
     el = etree.Element(ssd("DefaultExperiment"))
     if experiment.start_time is not None:
@@ -239,7 +239,7 @@ def _read_bindings(el: etree._Element, ssd_path: Path, locator: Locator, found: 
     return values
 
 
-def _read_experiment(root: etree._Element) -> Experiment | None:
+def _read_experiment(root: etree._Element) -> DefaultExperiment | None:
     """The DefaultExperiment, with the step size from pendfmu's annotation if present."""
     el = root.find(ssd("DefaultExperiment"))
     if el is None:
@@ -251,7 +251,7 @@ def _read_experiment(root: etree._Element) -> Experiment | None:
             if data is not None and data.get("stepSize") is not None:
                 step = float(data.get("stepSize"))
     start, stop = el.get("startTime"), el.get("stopTime")
-    return Experiment(None if start is None else float(start), None if stop is None else float(stop), step)
+    return DefaultExperiment(None if start is None else float(start), None if stop is None else float(stop), step)
 
 
 def read_ssd(path: str | Path, *, require_fmus: bool = False) -> System:
