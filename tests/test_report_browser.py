@@ -82,7 +82,7 @@ def report(tmp_path_factory):
     folder = tmp_path_factory.mktemp("browser")
     chosen = [e for e in standard_experiments() if e.name in ("cart-startup-2A", "cart-ramp")]
     write_experiments(folder / "rig", seed=5, experiments=chosen)
-    fitted = fit("cart", sorted((folder / "rig").glob("cart*.csv")), seed=1, progress=False,
+    fitted = fit("cart", sorted((folder / "rig").glob("cart*.csv")), progress=False,
                  global_search=GlobalOptions(enabled=False), uncertainty="jacobian")
     return fitted, write_report(fitted, folder / "report"), folder
 
