@@ -110,13 +110,14 @@ def synthetic_experiment(experiment: Experiment, simulated: dict[str, np.ndarray
 def refit(job: RefitJob) -> tuple[np.ndarray, int]:
     """The fit's own local refinement on one replicate, from the estimate: (physical
     values, failed simulations). The same least squares with the same tolerances and
-    budget as the fit, so that the replicates' spread is the estimator's; a looser refit
+    budget as the fit (one round of it: a refit starts at the optimum), so that the
+    replicates' spread is the estimator's; a looser refit
     stopped early on the real carriage and its spread followed the stopping point.
     Runs in a worker process or on a Dask worker; never raises for a failed simulation
     (Residuals penalizes it), and a refit that fails altogether gives NaN."""
     residuals = Residuals(job.experiments, job.free, job.shared, job.cost)
     try:
-        u, jacobian, residual, _ = local_search(residuals, job.u0)
+        u, jacobian, residual, _ = local_search(residuals, job.u0, rounds=1)
         u, _, _ = snap_to_bounds(residuals, u, jacobian, residual)
         return physical(job.free, u), residuals.failures
     except Exception:  # a replicate must never stop the fit; it is counted as failed

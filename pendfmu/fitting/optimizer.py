@@ -188,13 +188,14 @@ LOCAL_ROUNDS = 4  # a refinement that used up its budget while still descending 
 STILL_DESCENDING = 1e-6  # a round that lowered the cost by more than this fraction was still descending
 
 
-def local_search(residuals: Residuals, u0: np.ndarray, threads: int = 1
+def local_search(residuals: Residuals, u0: np.ndarray, threads: int = 1, rounds: int = LOCAL_ROUNDS
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str | None]:
     """Trust-region least squares; returns (u, Jacobian, residual, a note if it did not
     converge). `threads` > 1 computes the finite-difference Jacobian's columns on that many
     threads (Residuals.jacobian_map): the same numbers, sooner. A refinement that stops at
     its budget while its cost still falls is not an answer: it goes on from where it stopped,
-    for up to LOCAL_ROUNDS budgets (a converged one is untouched by this, to the bit)."""
+    for up to `rounds` budgets (a converged one is untouched by this, to the bit). A
+    bootstrap refit, which starts at the optimum of nearly the same data, takes one round."""
     budget = LOCAL_BUDGET * (len(u0) + 1)
 
     def refine(u: np.ndarray):
@@ -203,14 +204,14 @@ def local_search(residuals: Residuals, u0: np.ndarray, threads: int = 1
                              workers=residuals.jacobian_map(threads))
 
     with threadpool_limits(1, user_api="blas"):
-        result, rounds = refine(u0), 1
+        result, done = refine(u0), 1
         before = 0.5 * float(np.sum(np.square(residuals(u0)))) if result.status == 0 else 0.0
-        while result.status == 0 and rounds < LOCAL_ROUNDS and result.cost < (1.0 - STILL_DESCENDING) * before:
+        while result.status == 0 and done < rounds and result.cost < (1.0 - STILL_DESCENDING) * before:
             before = float(result.cost)
-            result, rounds = refine(result.x), rounds + 1
+            result, done = refine(result.x), done + 1
     note = None
     if result.status == 0:
-        note = (f"the local refinement stopped at its budget of {rounds} x {budget} iterations before converging: "
+        note = (f"the local refinement stopped at its budget of {done} x {budget} iterations before converging: "
                 f"the estimates may still move")
     return result.x, result.jac, result.fun, note
 
