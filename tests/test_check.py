@@ -4,6 +4,8 @@ for it, with a message that says what is wrong; the command's table and exit cod
 
 from __future__ import annotations
 
+import re
+
 import sys
 
 import pytest
@@ -88,7 +90,8 @@ def test_the_correct_broken_cart_passes_and_each_bug_is_caught_by_its_check(brok
 def test_command_prints_a_row_per_check_and_exits_by_the_result(broken, capsys):
     assert main(["check", str(broken["ok"]), "--only", "static", "determinism"]) == 0
     out = capsys.readouterr().out
-    assert "PASS  static: GUID CS" in out and "PASS  determinism: reset CS" in out and "0 failed" in out
+    assert re.search(r"PASS +static: GUID CS", out) and re.search(r"PASS +determinism: reset CS", out)
+    assert "0 failed" in out
     assert main(["check", str(broken["ok"]), str(broken["nan"]), "--only", "inputs"]) == 1
     out = capsys.readouterr().out
     assert "FAIL  inputs: finite outputs CS" in out and "u = 5: margin = nan" in out

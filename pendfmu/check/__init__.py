@@ -4,7 +4,7 @@ answered with an error, never a crash or NaN), determinism (fresh instances and 
 state rollback, step-size convergence, finite outputs over the inputs' range, and agreement
 with a reference result inside a tolerance tube (reference.py; `compare` for results already
 computed, reference results carried in the FMU under FMI-LS-REF). Each check gives
-`CheckResult(name, passed, figure, message)` rows; see battery.run_battery."""
+`CheckResult(name, verdict, figure, message)` rows (PASS, WARN, FAIL, INCONCLUSIVE); see battery.run_battery."""
 
 from pendfmu.check.fmu import CheckResult
 

@@ -11,9 +11,10 @@ from pathlib import Path
 
 from pendfmu.check import convergence, determinism, inputs, rollback, sequence, static
 from pendfmu.check import reference as reference_mod
-from pendfmu.check.fmu import CheckResult, Target
+from pendfmu.check.fmu import FAIL, INCONCLUSIVE, PASS, VERDICTS, WARN, CheckResult, Target
 from pendfmu.check.reference import DEFAULT_ATOL, DEFAULT_RTOL
 from pendfmu.console import progress
+from pendfmu.errors import EXIT_SUSPICIOUS as EXIT_INCONCLUSIVE
 from pendfmu.errors import BadInput
 
 DYNAMIC = (sequence, determinism, rollback, convergence, inputs)
@@ -62,14 +63,23 @@ def _guarded(label: str, check) -> list[CheckResult]:
 
 
 def format_table(path: str | Path, results: list[CheckResult]) -> str:
-    """One row per check: PASS/FAIL, name, figure; the message under a failure (and under a
-    pass that has something to say)."""
+    """One row per check: its verdict, name and figure; the reason under any row that did
+    not pass (and under a WARN)."""
     width = max((len(r.name) for r in results), default=10)
+    column = max((len(r.verdict) for r in results), default=4)  # "PASS  name" unless a longer verdict is shown
     lines = [f"{Path(path).name}"]
     for r in results:
-        lines.append(f"  {'PASS' if r.passed else 'FAIL'}  {r.name:<{width}}  {r.figure}")
-        if r.message and not r.passed:
-            lines.append(f"        {r.message}")
-    failed = sum(not r.passed for r in results)
-    lines.append(f"  {len(results) - failed} passed, {failed} failed")
+        lines.append(f"  {r.verdict:<{column}}  {r.name:<{width}}  {r.figure}")
+        if r.message and r.verdict != PASS:
+            lines.append(f"  {'':<{column}}  {r.message}")
+    count = {verdict: sum(r.verdict == verdict for r in results) for verdict in VERDICTS}
+    summary = [f"{count[PASS]} passed", f"{count[WARN]} with a warning" if count[WARN] else "",
+               f"{count[FAIL]} failed", f"{count[INCONCLUSIVE]} inconclusive" if count[INCONCLUSIVE] else ""]
+    lines.append("  " + ", ".join(part for part in summary if part))
     return "\n".join(lines)
+
+
+def exit_code(results: list[CheckResult]) -> int:
+    """1 if a check failed, else 3 if one was inconclusive (nothing exercised), else 0."""
+    verdicts = {r.verdict for r in results}
+    return 1 if FAIL in verdicts else (EXIT_INCONCLUSIVE if INCONCLUSIVE in verdicts else 0)

@@ -26,14 +26,34 @@ from pendfmu.simulator.fmi import instantiate_fmu, unpacked_fmu
 DOUBLE_P = ctypes.POINTER(ctypes.c_double)
 
 
+PASS, WARN, FAIL, INCONCLUSIVE = "PASS", "WARN", "FAIL", "INCONCLUSIVE"
+VERDICTS = (PASS, WARN, FAIL, INCONCLUSIVE)
+"""What a row says: PASS, the check exercised what it checks and the FMU did it right; WARN,
+the FMU does something FMI leaves to it in a way a user should know (the reason says why);
+FAIL, the FMU breaks what FMI requires or what the check measured; INCONCLUSIVE, the run
+exercised nothing the check could judge (the reason says what was missing)."""
+
+
 @dataclass
 class CheckResult:
-    """One row of the battery: its name, whether it passed, the measured figure (a short
-    text: a number with its meaning), and what a user should know (why it failed)."""
+    """One row of the battery: its name, its verdict (VERDICTS; True and False are PASS and
+    FAIL), the measured figure (a short text: what was exercised and what was measured) and
+    what a user should know (why it did not pass)."""
     name: str
-    passed: bool
+    verdict: str | bool
     figure: str = ""
     message: str = ""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.verdict, bool):
+            self.verdict = PASS if self.verdict else FAIL
+        if self.verdict not in VERDICTS:
+            raise ValueError(f"verdict {self.verdict!r} is not one of {', '.join(VERDICTS)}")
+
+    @property
+    def passed(self) -> bool:
+        """Nothing wrong found and something exercised: PASS or WARN."""
+        return self.verdict in (PASS, WARN)
 
 
 @dataclass

@@ -9,8 +9,10 @@ serialization reproducing a run bit for bit, step-size convergence (h, h/2, h/4)
 observed order, and finite outputs over each input's declared range.
 
 Inputs are driven by a slow sine over each input's declared range (else around its start
-value), held over each communication step h, or by --input REC.csv. Exit code 0: every check passed; 1: a check failed; 2: bad input (an FMU missing or
-unreadable).
+value), held over each communication step h, or by --input REC.csv. Each row is PASS, WARN (FMI
+leaves it to the FMU: the reason says what a user should know), FAIL or INCONCLUSIVE (the run
+exercised nothing the check could judge). Exit code 0: nothing failed or was inconclusive; 1: a
+check failed; 3: none failed, but one was inconclusive; 2: bad input (an FMU missing or unreadable).
 
 With --reference REF.csv (time first, columns named like the FMU's variables; columns of
 inputs are the stimulus) the FMU also runs on the reference's time grid and each other
@@ -58,7 +60,7 @@ def _tolerance(value: float | None, option: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pendfmu.check.battery import format_table, run_battery
+    from pendfmu.check.battery import exit_code, format_table, run_battery
     from pendfmu.check.fmu import Target
     from pendfmu.check.reference import DEFAULT_ATOL, DEFAULT_RTOL, read_reference_csv
 
@@ -70,10 +72,10 @@ def run(args: argparse.Namespace) -> int:
         target = Target(path, args.stop, args.step, args.input)
         if args.reference:
             read_reference_csv(args.reference, target)
-    failed = False
+    codes = []
     for path in args.fmus:
         results = run_battery(path, args.stop, args.step, tuple(args.only) if args.only else None, args.input,
                               args.reference, atol, rtol, args.ttol, args.plot)
         print(format_table(path, results), flush=True)
-        failed |= any(not r.passed for r in results)
-    return 1 if failed else 0
+        codes.append(exit_code(results))
+    return 1 if 1 in codes else max(codes, default=0)  # a FAIL anywhere outranks an inconclusive row
