@@ -199,7 +199,8 @@ def _summary(result) -> str:
             parts.append(f"{label} in {interval_text(*estimate.ci95)} (bounded only)")
         else:
             parts.append(f"{label} = {estimate.value:.6g}, 95 % {interval_text(*estimate.ci95)} ({estimate.method})")
-    return "wrote the result; estimates:\n  " + "\n  ".join(parts)
+    verdict = result.assessment.get("verdict", "adequate")
+    return f"wrote the result ({verdict}); estimates:\n  " + "\n  ".join(parts)
 
 
 def _truth_lines(folder, result=None) -> list[str]:

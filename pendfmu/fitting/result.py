@@ -19,13 +19,41 @@ from pendfmu.fitting.envelope import envelope_indices
 from pendfmu.fitting.labels import is_own, label
 
 
+FLAG_KINDS = ("at-bound", "unbounded", "wide-interval", "correlated", "not-determined", "bounded-only", "no-interval",
+              "model-inadequate", "not-separately-identified", "fit-failed", "note")
+"""The kinds of flags, for programs: the text says the same to a person, with the reason."""
+
+
+class Flag(str):
+    """What a user must know about an estimate: its text, and its kind (FLAG_KINDS), by which
+    a program can tell one flag from another without reading the words."""
+
+    kind: str
+
+    def __new__(cls, text: str, kind: str = "note") -> Flag:
+        if kind not in FLAG_KINDS:
+            raise ValueError(f"flag kind {kind!r} is not one of {', '.join(FLAG_KINDS)}")
+        flag = super().__new__(cls, text)
+        flag.kind = kind
+        return flag
+
+    def __reduce__(self):  # pickled to worker processes with its kind
+        return (Flag, (str(self), self.kind))
+
+
+def kinds(flags) -> list[str]:
+    """The kinds of a list of flags (plain text from an old result file: "note")."""
+    return [getattr(flag, "kind", "note") for flag in flags]
+
+
 @dataclass
 class Estimate:
     """One fitted quantity.
 
     `ci95` is the 95 % interval (an unbounded side is +-inf; None when none could be
     given), `method` says what gave it ("jacobian", "bootstrap", "bounded", ...), `low`
-    and `high` are the search bounds, `flags` what the user must know about it."""
+    and `high` are the search bounds, `flags` what the user must know about it (Flag: a
+    text with a kind)."""
 
     label: str
     value: float
@@ -84,6 +112,9 @@ class FitResult:
     provenance: dict = field(default_factory=dict)
     # the recordings predicted with the result but not fitted (fit_all: x and phi together)
     predicted: list[ExperimentFit] = field(default_factory=list)
+    # whether the fit can be trusted: {"verdict": "adequate" | "model-inadequate" | "fit-failed",
+    # "evidence": [what showed it]} (solve.py)
+    assessment: dict = field(default_factory=dict)
 
     @property
     def stderr(self) -> dict[str, float | None]:
@@ -109,11 +140,12 @@ class FitResult:
             "correlation": {k: {q: c for q, c in row.items() if q in shared}
                             for k, row in self.correlation.items() if k in shared},
             "flags": {k: e.flags for k, e in self.estimates.items() if e.flags},
+            "flag_kinds": {k: kinds(e.flags) for k, e in self.estimates.items() if e.flags},
             "initial": self.initial,
             "fit": {"stage": self.stage, "cost": self.cost, "nrmse": self.nrmse, "nfev": self.nfev,
                     "failures": self.failures, "seconds": self.seconds, "notes": self.notes,
                     "warnings": self.warnings, "uncertainty": self.uncertainty, "validation": self.validation,
-                    **({"model": self.model} if self.model else {})},
+                    "assessment": self.assessment, **({"model": self.model} if self.model else {})},
             "provenance": self.provenance,
             # per recording the values it ran with and its signals, long ones as their
             # display envelope (fitting/envelope.py): enough to re-render and compare reports
@@ -189,7 +221,9 @@ def read_result(path: str | Path) -> FitResult:
 
 def _result_from(document: dict) -> FitResult:
     fit = document["fit"]
-    flags = document.get("flags", {})
+    flags = {key: [Flag(text, kind) for text, kind in zip(texts, document.get("flag_kinds", {}).get(key, []) +
+                                                           ["note"] * len(texts))]
+             for key, texts in document.get("flags", {}).items()}
     methods = document.get("interval_method", {})
     estimates = {}
     for key, stderr in document.get("stderr", {}).items():
@@ -217,7 +251,7 @@ def _result_from(document: dict) -> FitResult:
         document.get("initial", {}), list(fit.get("notes", [])), fit.get("validation", {}),
         list(fit.get("warnings", [])), fit.get("uncertainty", {}), fit.get("model"),
         provenance=document.get("provenance", {}),
-        predicted=[_experiment_from(e) for e in document.get("predicted", [])])
+        predicted=[_experiment_from(e) for e in document.get("predicted", [])], assessment=fit.get("assessment", {}))
 
 
 def _json_interval(interval: tuple[float, float] | None) -> list[float | None] | None:

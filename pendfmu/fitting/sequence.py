@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from pendfmu.errors import OptionError
+from pendfmu.fitting.adequacy import VERDICTS
 from pendfmu.fitting.experiment import signal_scale
 from pendfmu.fitting.plausibility import SuspiciousData
 from pendfmu.fitting.problem import build_problem, given_values
@@ -157,7 +158,7 @@ def _combine(results: list[FitResult], values: dict[str, float], validation: lis
         [e for r in results for e in r.experiments], {k: v for r in results for k, v in r.initial.items()},
         [f"{r.stage}: {n}" for r in results for n in r.notes],
         warnings=[f"{r.stage}: {w}" for r in results for w in r.warnings],
-        uncertainty={r.stage: r.uncertainty for r in results})
+        uncertainty={r.stage: r.uncertainty for r in results}, assessment=worst_of(results))
     combined.provenance = merged([r.provenance for r in results if r.provenance], validation)
     if validation:
         combined.predicted = predicted_fits(values, validation)
@@ -165,3 +166,11 @@ def _combine(results: list[FitResult], values: dict[str, float], validation: lis
         combined.notes.append("predicted, not fitted (recordings with both x and phi): "
                               + ", ".join(r.path.name for r in validation))
     return combined
+
+
+def worst_of(results: Sequence[FitResult]) -> dict:
+    """The sequence's verdict: the worst of its stages' (adequacy.py), with each stage's."""
+    order = {verdict: k for k, verdict in enumerate(VERDICTS)}
+    stages = {r.stage: r.assessment for r in results if r.assessment}
+    worst = max((a["verdict"] for a in stages.values()), key=order.get, default="adequate")
+    return {"verdict": worst, "stages": stages}

@@ -19,23 +19,20 @@ import numpy as np
 from pendfmu.errors import FMUError, OptionError
 from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
 from pendfmu.fitting.experiment import Experiment
-from pendfmu.fitting.optimizer import optimize
+from pendfmu.fitting.adequacy import assess, search_until_settled, verdict_warning
 from pendfmu.fitting.plausibility import SuspiciousData
 from pendfmu.fitting.problem import Problem, build_problem
 from pendfmu.fitting.progress import Progress
 from pendfmu.fitting.provenance import fit_record
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
 from pendfmu.fitting.result import ExperimentFit, FitResult
-from pendfmu.fitting.statistics import flag_warnings, nrmse
+from pendfmu.fitting.statistics import flag_warnings, nrmse, without_zero_widths
 from pendfmu.fitting.ripple import fit_with_ripple, looks_for_ripple
 from pendfmu.fitting.spec import FitSpec
 from pendfmu.fitting.stiction import JOINTS, bound_stiction
 from pendfmu.fitting.uncertainty import assess_uncertainty
 from pendfmu.physics import pivot_inertia
 from pendfmu.recording.measurement import measurement_signal, no_effect
-
-# RMS of the scaled residuals (1 at the truth) above which the fit says the model is missing something
-MODEL_ERROR_LIMIT = 3.0
 
 
 @dataclass
@@ -100,14 +97,15 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
     try:
         u0 = start_vector(free, values, experiments)
         try:
-            outcome = optimize(residuals, coarse, u0, spec.seed_value, options, bar, cache)
+            outcome, searches = search_until_settled(residuals, coarse, u0, spec.seed_value, options, bar, cache)
         except KeyboardInterrupt:
             raise _interrupted(problem, u0, cache) from None
         bar("uncertainty")
         assessed = assess_uncertainty(spec.uncertainty, residuals, outcome, spec.replicate_count, upstream, options)
-        found = _Found(problem, residuals, outcome, assessed)
+        found = _Found(problem, residuals, outcome, assessed, assess(outcome, searches))
         found.failures_note()
         found.stiction()
+        found.notes += without_zero_widths(found.estimates)
         found.statistics()
     finally:
         bar.close()
@@ -153,19 +151,18 @@ class _Found:
     """What a search found, on its way to a FitResult: the estimates and their intervals,
     the notes and warnings each step adds, and the fit statistics per recording."""
 
-    def __init__(self, problem: Problem, residuals: Residuals, outcome, assessed):
+    def __init__(self, problem: Problem, residuals: Residuals, outcome, assessed, verdict: dict):
         self.problem, self.residuals, self.outcome, self.assessed = problem, residuals, outcome, assessed
+        self.verdict = verdict
         self.estimates = assessed.estimates
         self.notes = list(outcome.messages) + assessed.notes
         self.warnings = list(problem.warnings)
-        self.spread = float(np.sqrt(np.mean(outcome.residual**2))) if len(outcome.residual) else 0.0
         self.found = physical(problem.free, outcome.u)
         self.fitted = {p.name: float(v) for p, v in zip(problem.free, self.found) if p.experiment is None}
         self.fits: list[ExperimentFit] = []
-        if self.spread > MODEL_ERROR_LIMIT:
-            self.warnings.append(f"the residuals are {self.spread:.3g} times the sensor noise: the model misses "
-                                 f"something the recordings show, the data are mis-scaled, or the sidecar "
-                                 f"understates the noise")
+        marked = verdict_warning(verdict)
+        if marked:
+            self.warnings.append(f"{marked} (or the data are mis-scaled, or the sidecar understates the noise)")
 
     def failures_note(self) -> None:
         if self.outcome.failures:
@@ -191,7 +188,7 @@ class _Found:
             self.fits = experiment_fits(self.residuals, unit_of(free, final))
         except FMUError as error:
             self.notes.append(f"the simulation at the result fails ({error.reason()}): no fit statistics")
-        if self.spread > MODEL_ERROR_LIMIT:
+        if self.verdict["verdict"] != "adequate":
             self.warnings += drift_warnings(self.fits)
 
     def result(self, spec: FitSpec, start: np.ndarray) -> FitResult:
@@ -207,7 +204,7 @@ class _Found:
                          0.5 * float(outcome.residual @ outcome.residual), nrmse(self.fits), outcome.nfev,
                          outcome.failures, outcome.seconds, self.fits, initial, self.notes, warnings=warnings,
                          uncertainty=self.assessed.summary, replicates=self.assessed.replicates,
-                         model=problem.model_file, provenance=origin)
+                         model=problem.model_file, provenance=origin, assessment=self.verdict)
 
 
 DRIFT_RATIO = 10.0
@@ -235,9 +232,11 @@ def drift_warnings(fits: Sequence[ExperimentFit]) -> list[str]:
             if late > DRIFT_RATIO * early:
                 growth = f"{late / early:.3g}-fold" if early > 0 else "from nothing"
                 found.append(f"{fit.name}: the simulated {column} drifts away from the recording (its error grows "
-                             f"{growth} after the first twentieth of the run): an open-loop replay of a closed-loop "
-                             f"or unstable run cannot follow it; fit it in segments with their own initial states "
-                             f"(segment, or windows), or with its controller in the loop (an SSP system)")
+                             f"{growth} after the first twentieth of the run): the model misses something that "
+                             f"adds up over the run (a friction term, a drive constant), or the run was closed-loop "
+                             f"or unstable, which an open-loop replay cannot follow; for the latter fit it in "
+                             f"segments with their own initial states (segment, or windows), or with its controller "
+                             f"in the loop (an SSP system)")
     return found
 
 

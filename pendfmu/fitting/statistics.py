@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from pendfmu.fitting.residuals import FreeParameter, physical, physical_jacobian
-from pendfmu.fitting.result import Estimate, ExperimentFit
+from pendfmu.fitting.result import Estimate, ExperimentFit, Flag
 
 Z95 = 1.959963984540054
 CORRELATION_LIMIT = 0.95
@@ -52,7 +52,8 @@ def estimate_uncertainty(free: list[FreeParameter], u: np.ndarray, jacobian: np.
             estimate.stderr = float(sigma[k])
             estimate.ci95 = interval(estimate.value, estimate.stderr, positive(p), p.name)
         elif not at_bound(u[k]):
-            estimate.flags.append("the recordings do not depend on it (zero sensitivity): not identifiable here")
+            estimate.flags.append(Flag("the recordings do not depend on it (zero sensitivity): not identifiable here",
+                                       "not-determined"))
         estimates[p.label] = estimate
     correlation = correlation_table(free, covariance)
     add_flags(estimates, correlation, free, u)
@@ -123,34 +124,31 @@ def add_flags(estimates: dict[str, Estimate], correlation: dict[str, dict[str, f
     for k, p in enumerate(free):
         estimate = estimates[p.label]
         if at_bound(u[k]):
-            estimate.flags.append(_bound_flag(p, u[k] <= 1e-6))
+            estimate.flags.append(Flag(_bound_flag(p, u[k] <= 1e-6), "at-bound"))
         if estimate.ci95 is not None:
             low, high = estimate.ci95
             if not (math.isfinite(low) and math.isfinite(high)):
-                estimate.flags.append(f"unbounded: the 95 % interval is [{low:.4g}, {high:.4g}]; the recordings do "
-                                      f"not bound it on that side")
+                estimate.flags.append(Flag(f"unbounded: the 95 % interval is [{low:.4g}, {high:.4g}]; the recordings "
+                                           f"do not bound it on that side", "unbounded"))
             elif high - low > abs(estimate.value):
-                estimate.flags.append(f"95 % interval [{low:.4g}, {high:.4g}] is wider than the value: the "
-                                      f"recordings hardly determine it")
+                estimate.flags.append(Flag(f"95 % interval [{low:.4g}, {high:.4g}] is wider than the value: the "
+                                           f"recordings hardly determine it", "wide-interval"))
         for q in free:
             value = correlation.get(p.label, {}).get(q.label)
             if q is not p and value is not None and abs(value) > CORRELATION_LIMIT:
-                estimate.flags.append(f"correlated {value:+.3f} with {q.label}: only a combination of the two is "
-                                      f"determined")
+                estimate.flags.append(Flag(f"correlated {value:+.3f} with {q.label}: only a combination of the two "
+                                           f"is determined", "correlated"))
 
 
-WARNING_FLAGS = ("at its lower bound", "at its upper bound", "unbounded", "no interval", "not determined")
+WARNING_KINDS = ("at-bound", "unbounded", "no-interval", "not-determined")
 
 
 def flag_warnings(estimates: dict[str, Estimate]) -> list[str]:
     """The flags that must reach the console as warnings: an estimate at a search bound
-    (the optimum may lie beyond), an unbounded interval, no interval at all."""
-    warnings = []
-    for label, estimate in estimates.items():
-        for flag in estimate.flags:
-            if flag.startswith(WARNING_FLAGS) or "the upper bound of the search" in flag:
-                warnings.append(f"{label}: {flag}")
-    return warnings
+    (the optimum may lie beyond), an unbounded interval, no interval at all, a parameter
+    the recordings do not depend on."""
+    return [f"{label}: {flag}" for label, estimate in estimates.items() for flag in estimate.flags
+            if getattr(flag, "kind", "note") in WARNING_KINDS]
 
 
 def unknown_uncertainty(free: list[FreeParameter], u: np.ndarray, reason: str) -> dict[str, Estimate]:
@@ -158,7 +156,8 @@ def unknown_uncertainty(free: list[FreeParameter], u: np.ndarray, reason: str) -
     still the fit's, and the result is still written."""
     values = physical(free, u)
     return {p.label: Estimate(p.label, float(v), None, None, p.low, p.high,
-                              [f"no interval: the uncertainty could not be computed ({reason})"], method="none")
+                              [Flag(f"no interval: the uncertainty could not be computed ({reason})", "no-interval")],
+                              method="none")
             for p, v in zip(free, values)}
 
 
@@ -192,3 +191,23 @@ def nrmse(experiments: list[ExperimentFit]) -> dict[str, float]:
         spread = spread or 1.0
         result[name] = float(np.sqrt(np.mean((simulated - recorded) ** 2)) / spread)
     return result
+
+
+def without_zero_widths(estimates: dict[str, Estimate]) -> list[str]:
+    """No interval of zero width is reported: it would claim the value exact. It arises
+    where every bootstrap replicate ends at the same value, the edge of the search box
+    (the data push the estimate against it). Such an estimate keeps its value and loses
+    its interval, with a flag that says why; returns notes for the fit."""
+    notes = []
+    for label, estimate in estimates.items():
+        if estimate.ci95 is None or not all(math.isfinite(end) for end in estimate.ci95):
+            continue
+        low, high = estimate.ci95
+        if high - low > 1e-12 * max(abs(low), abs(high), 1e-300):
+            continue
+        estimate.ci95, estimate.stderr = None, None
+        estimate.flags.append(Flag(f"no interval: the {estimate.method} interval had zero width at {low:.6g} "
+                                   f"(every replicate ended there, at the search box's edge): the box, not the "
+                                   f"recordings, bounds it", "no-interval"))
+        notes.append(f"{label}: a zero-width interval was withheld")
+    return notes

@@ -31,7 +31,7 @@ import numpy as np
 
 from pendfmu.errors import FMUError
 from pendfmu.fitting.residuals import Residuals, unit_of
-from pendfmu.fitting.result import Estimate
+from pendfmu.fitting.result import Estimate, Flag
 from pendfmu.friction import JOINTS, Joint
 
 
@@ -107,10 +107,10 @@ def bound_stiction(stage: str, residuals: Residuals, u: np.ndarray, estimates: d
     low, high = bounds
     fitted[joint.stiction] = low
     estimates[joint.stiction] = replace(
-        estimates[joint.stiction], value=low, stderr=None, ci95=(low, high), method="bounded", flags=[
+        estimates[joint.stiction], value=low, stderr=None, ci95=(low, high), method="bounded", flags=[Flag(
             f"bounded only: every {joint.stiction} in [{low:.4g}, {high:.4g}] {joint.unit} gives the same recordings "
             f"(no joint at rest broke away in them: they only show where it stuck or reversed); the value given is "
             f"the least stiction the recordings demand"
             + (". Record the 'pendulum-stiction' experiment (pendfmu rig) to pin it down" if stage == "pendulum"
-               else ". Record a slow ramp of the drive from rest to pin it down")])
+               else ". Record a slow ramp of the drive from rest to pin it down"), "bounded-only")])
     return [f"{joint.stiction} is set-identified: [{low:.4g}, {high:.4g}] {joint.unit}"]

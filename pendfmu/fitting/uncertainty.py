@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pendfmu.fitting.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
-from pendfmu.fitting.result import Estimate
+from pendfmu.fitting.result import Estimate, Flag
 from pendfmu.fitting.statistics import estimate_uncertainty, unknown_uncertainty
 from pendfmu.fitting.residuals import Residuals, physical
 from pendfmu.friction import JOINTS
@@ -81,8 +81,9 @@ def undetermined(free, u: np.ndarray, jacobian: np.ndarray, estimates: dict[str,
         low, high = min(ends), max(ends)
         estimate = estimates[p.label]
         estimate.ci95, estimate.stderr, estimate.method = (low, high), None, "bounded"
-        estimate.flags = [f"not determined: the recordings do not depend on it here, so every value of the search "
-                          f"box [{low:.4g}, {high:.4g}] fits them as well; the value given is where the search stopped"]
+        estimate.flags = [Flag(f"not determined: the recordings do not depend on it here, so every value of the "
+                               f"search box [{low:.4g}, {high:.4g}] fits them as well; the value given is where the "
+                               f"search stopped", "not-determined")]
         notes.append(f"{p.label} is not determined by the recordings (zero sensitivity)")
     return notes
 
