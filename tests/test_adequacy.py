@@ -61,8 +61,8 @@ def outcome(level: float, n: int = 100, nfev: int = 10) -> Outcome:
 
 def test_a_missed_minimum_found_by_a_wider_search_is_kept(monkeypatch):
     """The mechanism on stand-in searches: the first ends at 50 times the noise, the second
-    (seed + 1, population doubled) at the noise: the fit is the second's, adequate, with
-    both searches' evaluations counted."""
+    (seed + 1) at the noise: the fit is the second's, adequate, with both searches'
+    evaluations counted."""
     calls = []
 
     def search(residuals, coarse, u0, seed, options, progress, cache):
@@ -71,7 +71,7 @@ def test_a_missed_minimum_found_by_a_wider_search_is_kept(monkeypatch):
 
     monkeypatch.setattr(adequacy, "optimize", search)
     found, searches = adequacy.search_until_settled(None, None, np.zeros(1), 7, GlobalOptions(popsize=8))
-    assert calls == [(7, 8), (8, 16)]
+    assert calls == [(7, 8), (8, 8)]
     assert adequacy.spread(found) == 1.0 and found.nfev == 20
     assert adequacy.assess(found, searches)["verdict"] == "adequate"
 
@@ -80,7 +80,8 @@ def test_searches_that_disagree_and_stay_poor_are_fit_failed(monkeypatch):
     levels = iter([50.0, 40.0, 30.0])
     monkeypatch.setattr(adequacy, "optimize", lambda *args: outcome(next(levels)))
     found, searches = adequacy.search_until_settled(None, None, np.zeros(1), 0, GlobalOptions())
-    assert [s.seed for s in searches] == [0, 1, 2] and adequacy.spread(found) == 30.0
+    assert [(s.seed, s.population) for s in searches] == [(0, 8), (1, 8), (2, 16)]
+    assert adequacy.spread(found) == 30.0
     verdict = adequacy.assess(found, searches)
     assert verdict["verdict"] == "fit-failed" and "different costs" in verdict["evidence"][-1]
 

@@ -74,9 +74,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--checkpoint", help="checkpoint file written on Ctrl-C (default: OUT with .checkpoint)")
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted fit from its checkpoint (same command otherwise)")
-    parser.add_argument("--uncertainty", choices=("bootstrap", "jacobian"), default="bootstrap",
-                        help="intervals: parametric bootstrap through the sensor model (calibrated, default) or "
-                             "the Jacobian at the optimum (fast, far too narrow on quantized recordings)")
+    parser.add_argument("--uncertainty", choices=("bootstrap", "jacobian", "sandwich"), default="bootstrap",
+                        help="intervals: parametric bootstrap through the sensor model (calibrated, default; a fit "
+                             "whose residuals stand far above the noise gets the sandwich ones instead), the Jacobian "
+                             "at the optimum (fast, far too narrow on quantized recordings), or the sandwich (the "
+                             "residuals' own size and correlation)")
     parser.add_argument("--replicates", type=int, metavar="N",
                         help="bootstrap replicates (default 24; each is one local refit, run on the workers)")
     parser.add_argument("--harmonic", choices=("auto", "off"), default="auto",

@@ -4,8 +4,9 @@ Residuals far above the sensor noise on data the model could explain mean a miss
 minimum as often as a missing model term: one seeded global search can settle in a poor
 basin (a virtual rig whose ramp never breaks the cart away ended at 179 times the noise
 with a wrong eta, k_fwc and F_Sc, and intervals of +-0.0003 %). So a fit whose residuals
-stay above MODEL_ERROR_LIMIT times the noise searches again, seeded and wider (the seed
-plus k, the population doubled), up to RESTARTS times, and keeps the best. Then:
+stay above MODEL_ERROR_LIMIT times the noise searches again, seeded and escalating (the seed
+plus k; the second time with twice the population), up to RESTARTS times, until two searches
+end in the same minimum, and keeps the best. Then:
 
 - adequate: the residuals are within the limit;
 - model-inadequate: they are not, and searches from other seeds end at the same cost (within
@@ -55,15 +56,15 @@ def cost(outcome: Outcome) -> float:
 def search_until_settled(residuals: Residuals, coarse: Residuals, u0: np.ndarray, seed: int, options: GlobalOptions,
                          progress: Callable[[str], None] | None = None, cache: dict | None = None
                          ) -> tuple[Outcome, list[Search]]:
-    """The fit's search (optimizer.optimize), repeated from other seeds with a larger
-    population while the residuals stay far above the noise and the searches disagree;
+    """The fit's search (optimizer.optimize), repeated from other seeds (the second time with
+    a larger population) while the residuals stay far above the noise and the searches disagree;
     the best outcome, with every search's counts, and the searches made."""
     outcome = optimize(residuals, coarse, u0, seed, options, progress, cache)
     searches = [Search(seed, options.popsize, cost(outcome))]
     for k in range(1, RESTARTS + 1):
         if not options.enabled or spread(outcome) <= MODEL_ERROR_LIMIT or _settled(searches):
             break
-        wider = replace(options, popsize=options.popsize * 2)
+        wider = replace(options, popsize=options.popsize * 2 ** (k - 1))  # another seed, then wider too
         again = optimize(residuals, coarse, u0, seed + k, wider, progress, cache)
         searches.append(Search(seed + k, wider.popsize, cost(again)))
         outcome = _better(outcome, again, searches)

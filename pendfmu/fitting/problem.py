@@ -10,21 +10,25 @@ the intervals never see which it was.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from pendfmu.errors import OptionError
 from pendfmu.fitting.experiment import Experiment
 from pendfmu.fitting.models import (checked_values, initial_map, mapping, model_experiments,
                                     model_free_parameters, read_for, without_aliases)
 from pendfmu.fitting.plausibility import check_experiment, self_locking_switch, viscous_twins
-from pendfmu.fitting.residuals import FreeParameter
+from pendfmu.fitting.residuals import FreeParameter, unit_of
 from pendfmu.fitting.spec import STAGE_NAMES, FitSpec
 from pendfmu.fitting.stages import make_experiment, stage_free_parameters
 from pendfmu.parameters import check_parameters, read_parameters, rig_values
-from pendfmu.physics import settled
+from pendfmu.physics import pivot_inertia, settled
 from pendfmu.recording import Recording, RecordingError, read_recording
+from pendfmu.recording.measurement import measurement_signal, no_effect
 from pendfmu.recording.windows import cut
 from pendfmu.simulator.model import Model
 
@@ -150,3 +154,28 @@ def _distinct(experiments: Sequence[Experiment]) -> None:
     names = [e.name for e in experiments]
     if len(set(names)) != len(names):
         raise RecordingError(f"two recordings share the name {sorted(n for n in names if names.count(n) > 1)[0]!r}")
+
+
+def start_vector(free: list[FreeParameter], values: Mapping[str, float], experiments: list[Experiment]) -> np.ndarray:
+    """The start of the search: given values, a recording's own guesses for its own
+    parameters; where none is known, the middle of the box (the low end where that is
+    0: a delay or an extra that is off)."""
+    by_name = {e.name: e for e in experiments}
+
+    def default(p: FreeParameter) -> float:
+        if p.name not in values and measurement_signal(p.name):
+            return no_effect(p.name)
+        if p.name == "J_p" and values.get("J_p") == 0.0:  # 0 is the rod's inertia by convention, not a value
+            return pivot_inertia(values)
+        middle = math.sqrt(p.low * p.high) if p.log else 0.5 * (p.low + p.high)
+        return values.get(p.name, p.low if p.low == 0 else middle)
+
+    start = []
+    for p in free:
+        if p.experiment is None:
+            start.append(default(p))
+            continue
+        experiment = by_name[p.experiment]
+        guess = experiment.estimated[p.name][0]
+        start.append(guess if guess is not None else experiment.fixed.get(p.name, default(p)))
+    return unit_of(free, start)

@@ -242,6 +242,18 @@ class Residuals:
                                        experiment.recording.resolution(column), present)
         return self._target_cache[key]
 
+    def series(self) -> list[tuple[int, int]]:
+        """Where each recorded signal's residuals lie in the residual vector: [start, stop)
+        per experiment and matched column, in the vector's order. Residuals of one series
+        may be correlated in time; those of two series are taken as independent."""
+        spans, start = [], 0
+        for k, experiment in enumerate(self.experiments):
+            for column in experiment.match.values():
+                stop = start + len(self._targets(k, column)[0])
+                spans.append((start, stop))
+                start = stop
+        return spans
+
     def sum_of_squares(self, u: Sequence[float]) -> float:
         residual = self(u)
         return float(residual @ residual)

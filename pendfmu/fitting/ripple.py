@@ -64,8 +64,8 @@ def fit_with_ripple(spec: FitSpec, solve: Callable[[FitSpec, bool], FitResult]) 
     """The current stage with its PWM ripple: the lag alone first (its intervals the fast
     ones), then, if a harmonic stands out of that fit's residual, the harmonic added to the
     free parameters and fitted from there; if none does, the lag's intervals by the
-    method asked for. `solve(spec, quiet)` solves one pass (quiet: its recordings' warnings
-    were given by the first pass)."""
+    method asked for. `solve(spec, final)` solves one pass: the first, or a final one (its
+    recordings' warnings were given by the first, and it is the one validated)."""
     first = solve(spec.with_options(uncertainty="jacobian", replicates=None), False)
     found = detect_harmonic(first)
     local = replace(spec.global_search, enabled=False)

@@ -10,7 +10,6 @@ warnings go, --strict -- is its Session, not part of what it fits.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -21,18 +20,17 @@ from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
 from pendfmu.fitting.experiment import Experiment
 from pendfmu.fitting.adequacy import assess, search_until_settled, verdict_warning
 from pendfmu.fitting.plausibility import SuspiciousData
-from pendfmu.fitting.problem import Problem, build_problem
+from pendfmu.fitting.problem import Problem, build_problem, start_vector
 from pendfmu.fitting.progress import Progress
 from pendfmu.fitting.provenance import fit_record
-from pendfmu.fitting.residuals import FreeParameter, Residuals, physical, unit_of
+from pendfmu.fitting.residuals import Residuals, physical, unit_of
 from pendfmu.fitting.result import ExperimentFit, FitResult
-from pendfmu.fitting.statistics import flag_warnings, nrmse, without_zero_widths
+from pendfmu.fitting.statistics import flag_warnings, nrmse, sandwich_estimates, without_zero_widths
 from pendfmu.fitting.ripple import fit_with_ripple, looks_for_ripple
 from pendfmu.fitting.spec import FitSpec
 from pendfmu.fitting.stiction import JOINTS, bound_stiction
 from pendfmu.fitting.uncertainty import assess_uncertainty
-from pendfmu.physics import pivot_inertia
-from pendfmu.recording.measurement import measurement_signal, no_effect
+from pendfmu.fitting.validation import mark_moving, moving, separately, validate
 
 
 @dataclass
@@ -70,14 +68,15 @@ def solve(spec: FitSpec, session: Session, upstream: Sequence[Mapping[str, float
     """Fit one stage or model as `spec` says. `upstream`: per bootstrap replicate, an
     earlier stage's values (the sequence passes them), so that the intervals carry them."""
     if looks_for_ripple(spec):
-        return fit_with_ripple(spec, lambda one, quiet: solve_problem(
-            build_problem(one), one, session.quiet() if quiet else session, upstream))
+        return fit_with_ripple(spec, lambda one, final: solve_problem(
+            build_problem(one), one, session.quiet() if final else session, upstream, validating=final))
     return solve_problem(build_problem(spec), spec, session, upstream)
 
 
 def solve_problem(problem: Problem, spec: FitSpec, session: Session,
-                  upstream: Sequence[Mapping[str, float]] | None = None) -> FitResult:
-    """Search, assess and gather the result of one built problem."""
+                  upstream: Sequence[Mapping[str, float]] | None = None, validating: bool = True) -> FitResult:
+    """Search, assess and gather the result of one built problem; `validating`: refit the
+    halves of long recordings to see whether the model holds its parameters (validation.py)."""
     if not problem.free:
         raise OptionError("fix", f"{', '.join(spec.fix)} leaves nothing to fit on {spec.target_name} (and no "
                                  f"recording estimates its own values)")
@@ -101,10 +100,19 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
         except KeyboardInterrupt:
             raise _interrupted(problem, u0, cache) from None
         bar("uncertainty")
-        assessed = assess_uncertainty(spec.uncertainty, residuals, outcome, spec.replicate_count, upstream, options)
-        found = _Found(problem, residuals, outcome, assessed, assess(outcome, searches))
+        verdict = assess(outcome, searches)
+        method = interval_method(spec.uncertainty, verdict)
+        assessed = assess_uncertainty(method, residuals, outcome, spec.replicate_count, upstream, options)
+        found = _Found(problem, residuals, outcome, assessed, verdict)
+        if method != spec.uncertainty:
+            found.notes.append(f"intervals by the {method} instead of the {spec.uncertainty}: the residuals stand far "
+                               f"above the sensor noise, which a bootstrap through the sensor model does not see")
         found.failures_note()
+        found.at_least_the_sandwich()
         found.stiction()
+        if validating:
+            bar("validation")
+            found.validate(spec)
         found.notes += without_zero_widths(found.estimates)
         found.statistics()
     finally:
@@ -114,37 +122,19 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
     return found.result(spec, physical(free, u0))
 
 
+def interval_method(asked: str, verdict: dict) -> str:
+    """The intervals' method: as asked, but the sandwich for a bootstrap of a fit that misses
+    what its recordings show (a bootstrap through the sensor model cannot see the model's
+    error, and on such recordings it cost 6-9 times the fit)."""
+    return "sandwich" if asked == "bootstrap" and verdict["verdict"] != "adequate" else asked
+
+
 def _interrupted(problem: Problem, u0: np.ndarray, cache: dict) -> Interrupted:
     """Ctrl-C during the search: the best values found so far, for the command to write."""
     best = best_candidate(cache)
     found = physical(problem.free, u0 if best is None else best)
     shared = {p.name: float(v) for p, v in zip(problem.free, found) if p.experiment is None}
     return Interrupted({**problem.values, **shared}, problem.name)
-
-
-def start_vector(free: list[FreeParameter], values: Mapping[str, float], experiments: list[Experiment]) -> np.ndarray:
-    """The start of the search: given values, a recording's own guesses for its own
-    parameters; where none is known, the middle of the box (the low end where that is
-    0: a delay or an extra that is off)."""
-    by_name = {e.name: e for e in experiments}
-
-    def default(p: FreeParameter) -> float:
-        if p.name not in values and measurement_signal(p.name):
-            return no_effect(p.name)
-        if p.name == "J_p" and values.get("J_p") == 0.0:  # 0 is the rod's inertia by convention, not a value
-            return pivot_inertia(values)
-        middle = math.sqrt(p.low * p.high) if p.log else 0.5 * (p.low + p.high)
-        return values.get(p.name, p.low if p.low == 0 else middle)
-
-    start = []
-    for p in free:
-        if p.experiment is None:
-            start.append(default(p))
-            continue
-        experiment = by_name[p.experiment]
-        guess = experiment.estimated[p.name][0]
-        start.append(guess if guess is not None else experiment.fixed.get(p.name, default(p)))
-    return unit_of(free, start)
 
 
 class _Found:
@@ -168,6 +158,37 @@ class _Found:
         if self.outcome.failures:
             self.notes.append(f"{self.outcome.failures} simulations failed during the fit and were penalized "
                               f"(last: {self.outcome.last_failure or 'no reason reported'})")
+
+    def at_least_the_sandwich(self) -> None:
+        """No interval of a fit that misses what its recordings show is narrower than the
+        sandwich one (its residuals' own size and correlation), whatever method was asked."""
+        if self.verdict["verdict"] == "adequate" or self.assessed.summary.get("method") == "sandwich":
+            return
+        sandwich, _, _ = sandwich_estimates(self.problem.free, self.outcome.u, self.outcome.jacobian,
+                                            self.outcome.residual, self.residuals.series())
+        for label, estimate in self.estimates.items():
+            wide = sandwich.get(label)
+            if estimate.ci95 is None or wide is None or wide.ci95 is None or estimate.method == "bounded":
+                continue
+            low, high = min(estimate.ci95[0], wide.ci95[0]), max(estimate.ci95[1], wide.ci95[1])
+            if (low, high) != tuple(estimate.ci95):
+                estimate.ci95, estimate.method = (low, high), f"{estimate.method}, widened to the sandwich"
+
+    def validate(self, spec: FitSpec) -> None:
+        """The halves of long recordings refitted (validation.py): a parameter that moves is
+        marked and its interval widened; on a fit as good as the sensors only a strong
+        disagreement counts, and it makes the fit model-inadequate."""
+        consistency = validate(spec, self.problem, {**self.problem.values, **self.fitted})
+        self.verdict["windows"] = consistency
+        adequate = self.verdict["verdict"] == "adequate"
+        moved = moving(consistency, adequate)
+        evidence = mark_moving(self.estimates, moved)
+        if evidence and adequate:
+            self.verdict["verdict"] = "model-inadequate"
+            self.warnings.append("model-inadequate: " + "; ".join(evidence))
+        self.verdict["evidence"] += evidence
+        if self.verdict["verdict"] != "adequate":
+            self.verdict["combinations"] = separately(self.estimates, self.assessed.correlation)
 
     def stiction(self) -> None:
         """A stage's stiction that the recordings only bound becomes that set (stiction.py)."""

@@ -28,7 +28,7 @@ from pendfmu.fitting.optimizer import GlobalOptions
 STAGE_NAMES = ("current", "cart", "pendulum")
 SEQUENCE = "all"
 COSTS = ("plain", "quantized")
-UNCERTAINTY_METHODS = ("bootstrap", "jacobian")
+UNCERTAINTY_METHODS = ("bootstrap", "jacobian", "sandwich")
 INTERPOLATIONS = ("hold", "linear")
 STARTS = ("estimated", "measured")
 HARMONIC_CHOICES = ("auto", "off")
@@ -83,8 +83,10 @@ class FitSpec:
     global_search : GlobalOptions
         The global search (enabled, population, generations) and where candidates and
         bootstrap refits run (local workers, a Dask scheduler).
-    uncertainty : {'bootstrap', 'jacobian'}
-        Calibrated intervals from refits, or the fast Jacobian ones.
+    uncertainty : {'bootstrap', 'jacobian', 'sandwich'}
+        Calibrated intervals from refits (a fit that misses what the recordings show gets the
+        sandwich ones instead: adequacy.py), the fast Jacobian ones, or the sandwich ones
+        (residuals correlated and above the noise: statistics.sandwich_covariance).
     replicates : int or None
         Bootstrap replicates (None: REPLICATES).
     """

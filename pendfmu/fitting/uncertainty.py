@@ -20,11 +20,11 @@ import numpy as np
 
 from pendfmu.fitting.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
 from pendfmu.fitting.result import Estimate, Flag
-from pendfmu.fitting.statistics import estimate_uncertainty, unknown_uncertainty
+from pendfmu.fitting.statistics import estimate_uncertainty, sandwich_estimates, unknown_uncertainty
 from pendfmu.fitting.residuals import Residuals, physical
 from pendfmu.friction import JOINTS
 
-METHODS = ("bootstrap", "jacobian")
+METHODS = ("bootstrap", "jacobian", "sandwich")
 MIN_REPLICATES = 8  # fewer successful refits than this: no bootstrap interval
 
 
@@ -52,10 +52,27 @@ def assess_uncertainty(method: str, residuals: Residuals, outcome, replicates: i
             assessment = _jacobian(residuals, outcome)
             assessment.notes.append("the bootstrap was interrupted: the intervals are the fast Jacobian ones, "
                                     "which are too narrow on quantized recordings")
+    elif method == "sandwich" and len(free):
+        assessment = _sandwich(residuals, outcome)
     else:
         assessment = _jacobian(residuals, outcome)
     assessment.summary["seconds"] = time.perf_counter() - start
     return assessment
+
+
+def _sandwich(residuals: Residuals, outcome) -> Assessment:
+    """Intervals from the sandwich covariance (statistics.sandwich_covariance): what the
+    residuals' own size and correlation say, where the model misses something and a
+    bootstrap through the sensor model would not see it."""
+    try:
+        estimates, correlation, batch = sandwich_estimates(residuals.free, outcome.u, outcome.jacobian,
+                                                           outcome.residual, residuals.series())
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as error:
+        fallback = _jacobian(residuals, outcome)
+        fallback.notes.append(f"the sandwich intervals could not be computed ({type(error).__name__}: {error}); the "
+                              f"intervals are the Jacobian ones")
+        return fallback
+    return Assessment(estimates, correlation, summary={"method": "sandwich", "batch_samples": batch})
 
 
 FLAT = 1e-8  # a Jacobian column this small against the largest: the recordings do not depend on it
