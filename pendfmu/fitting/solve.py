@@ -30,7 +30,7 @@ from pendfmu.fitting.ripple import fit_with_ripple, looks_for_ripple
 from pendfmu.fitting.spec import FitSpec
 from pendfmu.fitting.stiction import JOINTS, bound_stiction
 from pendfmu.fitting.uncertainty import assess_uncertainty
-from pendfmu.fitting.validation import mark_moving, moving, separately, validate
+from pendfmu.fitting.validation import hold_the_halves, mark_moving, moving, separately, validate
 
 
 @dataclass
@@ -181,6 +181,8 @@ class _Found:
         consistency = validate(spec, self.problem, {**self.problem.values, **self.fitted})
         self.verdict["windows"] = consistency
         adequate = self.verdict["verdict"] == "adequate"
+        if not adequate:
+            hold_the_halves(self.estimates, consistency)
         moved = moving(consistency, adequate)
         evidence = mark_moving(self.estimates, moved)
         if evidence and adequate:

@@ -1,19 +1,20 @@
 """Validation built into the fit: the model against data it did not fit.
 
-Every recording long enough is split in two halves (early and late: for a free decay, large
-amplitude and small), and each half is refitted on its own, locally from the fit's optimum,
-with sandwich intervals (statistics.sandwich_covariance: right when the residuals are
-correlated and larger than the noise, as where the model misses something). A parameter
-whose halves differ by more than their combined 95 % interval (the hypotenuse of the two
-half-widths) moves with time or amplitude: the model does not hold it fixed across the
-recording.
+Every recording long enough is split in two halves, early and late (for a free decay: large
+amplitude and small); the early halves are refitted together on their own, and so are the
+late ones, locally from the fit's optimum, each with Jacobian and sandwich intervals
+(statistics.sandwich_covariance: right when the residuals are correlated and larger than the
+noise, as where the model misses something). A parameter whose two estimates differ by more
+than their combined 95 % interval (the hypotenuse of the two half-widths) moves with time or
+amplitude: the model does not hold it fixed over the recordings.
 
-What follows from it (solve.py): on a fit whose residuals stand far above the noise (adequacy.py),
-each parameter that moves is flagged `model-inadequate`, its interval widened to hold both
-halves' estimates; a pair the data determine only as a combination is flagged
+What follows from it (solve.py): on a fit whose residuals stand far above the noise
+(adequacy.py), every interval is widened to hold both halves' estimates (what the validation
+sees), and each parameter that moves beyond the halves' Jacobian intervals is flagged
+`model-inadequate`; a pair the data determine only as a combination is flagged
 `not-separately-identified` with that combination. On a fit whose residuals are as small as
-the sensors allow, one in twenty parameters disagrees by chance, so only a disagreement of
-twice the combined interval counts.
+the sensors allow, one parameter in twenty disagrees by chance, so only a disagreement of
+STRICT times the halves' sandwich interval counts, and it makes the fit model-inadequate.
 """
 
 from __future__ import annotations
@@ -31,112 +32,120 @@ from pendfmu.fitting.problem import Problem, build_problem, start_vector
 from pendfmu.fitting.residuals import Residuals
 from pendfmu.fitting.result import Estimate, Flag
 from pendfmu.fitting.spec import FitSpec
-from pendfmu.fitting.statistics import CORRELATION_LIMIT, Z95, sandwich_estimates
+from pendfmu.fitting.statistics import CORRELATION_LIMIT, Z95, estimate_uncertainty, sandwich_estimates
 
-MIN_HALF = 400  # samples each half must hold to be refitted on its own
+MIN_HALF = 400  # samples each half of a recording must hold for it to be split
 STRICT = 2.0  # on a fit as good as the sensors, a disagreement counts beyond this many combined intervals
+WHICH = ("early", "late")
 
 
-def halves(problem: Problem) -> list[tuple[str, str, object]]:
-    """(recording, 'early' | 'late', the half as a Recording) of every recording long enough."""
-    found = []
+def halves(problem: Problem) -> dict[str, list]:
+    """The early and the late halves (Recordings) of every recording long enough."""
+    found: dict[str, list] = {which: [] for which in WHICH}
     for experiment in problem.experiments:
         recording = experiment.recording
         if len(recording.time) < 2 * MIN_HALF:
             continue
         middle = float(recording.time[len(recording.time) // 2])
-        found.append((experiment.name, "early", recording.window(float(recording.time[0]), middle)))
-        found.append((experiment.name, "late", recording.window(middle, float(recording.time[-1]))))
+        found["early"].append(recording.window(float(recording.time[0]), middle))
+        found["late"].append(recording.window(middle, float(recording.time[-1])))
     return found
 
 
-def refit_part(spec: FitSpec, recording, values: Mapping[str, float]) -> dict[str, Estimate] | None:
-    """The shared estimates of one part refitted on its own: the same problem with only this
-    recording, locally from `values` (the fit's optimum), with sandwich intervals; None when
-    it cannot be simulated."""
-    part = spec.with_options(recordings=(recording,), params=dict(values), windows=(), segment=None, start=None,
-                             seed=None, uncertainty="jacobian", replicates=None,
+def refit_part(spec: FitSpec, recordings: list, values: Mapping[str, float]) -> dict[str, tuple] | None:
+    """The shared estimates of one part refitted on its own: the same problem with only these
+    recordings, locally from `values` (the fit's optimum); per label (Jacobian estimate,
+    sandwich estimate). None when it cannot be simulated."""
+    part = spec.with_options(recordings=tuple(recordings), params=dict(values), windows=(), segment=None,
+                             start=None, seed=None, uncertainty="jacobian", replicates=None,
                              global_search=replace(spec.global_search, enabled=False))
     problem = build_problem(part)
     residuals = Residuals(problem.experiments, problem.free, problem.values, spec.cost)
     try:
         u, jacobian, residual, _ = local_search(residuals, start_vector(problem.free, problem.values,
                                                                           problem.experiments), rounds=1)
-        estimates, _, _ = sandwich_estimates(problem.free, u, jacobian, residual, residuals.series())
+        plain, _ = estimate_uncertainty(problem.free, u, jacobian, residual)
+        wide, _, _ = sandwich_estimates(problem.free, u, jacobian, residual, residuals.series())
     except (FMUError, ArithmeticError, np.linalg.LinAlgError):
         return None
     finally:
         residuals.close()
-    return {label: e for label, e in estimates.items() if not is_own(label)}
+    return {label: (plain[label], wide[label]) for label in plain if not is_own(label)}
 
 
 def validate(spec: FitSpec, problem: Problem, values: Mapping[str, float]) -> dict:
-    """Each long recording's halves refitted and compared (module docstring): the parts, and
-    per parameter the largest disagreement between a recording's halves in units of their
-    combined interval, with which way it moves."""
-    parts = {}
-    for recording, which, half in halves(problem):
-        estimates = refit_part(spec, half, values)
-        if estimates is not None:
-            parts.setdefault(recording, {})[which] = estimates
-    parameters: dict[str, dict] = {}
-    for recording, pair in parts.items():
-        if set(pair) != {"early", "late"}:
+    """The early and late halves refitted and compared (module docstring): per part its
+    estimates, and per parameter how far it moves, in combined Jacobian and sandwich
+    intervals, and which way."""
+    split = halves(problem)
+    if not split["early"]:
+        return {}
+    parts = {which: refit_part(spec, split[which], values) for which in WHICH}
+    if any(part is None for part in parts.values()):
+        return {"note": "a half could not be simulated at the fit's optimum: no validation"}
+    parameters = {name: _movement(parts["early"][name], parts["late"].get(name)) for name in parts["early"]}
+    return {"recordings": [r.label for r in split["early"]],
+            "halves": {which: {name: _row(pair[1]) for name, pair in part.items()} for which, part in parts.items()},
+            "parameters": {name: moved for name, moved in parameters.items() if moved is not None}}
+
+
+def _movement(early: tuple, late: tuple | None) -> dict | None:
+    """How far a parameter moves from the early halves to the late, in combined intervals
+    (Jacobian and sandwich)."""
+    if late is None:
+        return None
+    ratios = {}
+    for method, a, b in (("jacobian", early[0], late[0]), ("sandwich", early[1], late[1])):
+        if a.ci95 is None or b.ci95 is None:
+            return None
+        combined = math.hypot((a.ci95[1] - a.ci95[0]) / 2, (b.ci95[1] - b.ci95[0]) / 2)
+        ratios[method] = abs(b.value - a.value) / combined if combined > 0 else math.inf
+    change = late[1].value - early[1].value
+    return {"early": early[1].value, "late": late[1].value, "ratio": ratios["sandwich"],
+            "ratio_jacobian": ratios["jacobian"], "direction": "rises" if change > 0 else "falls"}
+
+
+def moving(consistency: Mapping, adequate: bool) -> dict[str, dict]:
+    """The parameters whose halves disagree: beyond their combined Jacobian interval on a fit
+    that misses something (a conservative test: the fit is marked already), beyond STRICT
+    times their sandwich interval on one as good as the sensors."""
+    key, limit = ("ratio", STRICT) if adequate else ("ratio_jacobian", 1.0)
+    return {name: moved for name, moved in consistency.get("parameters", {}).items() if moved[key] > limit}
+
+
+def hold_the_halves(estimates: dict[str, Estimate], consistency: Mapping) -> None:
+    """Every interval widened to hold both halves' estimates: on a fit that misses
+    something, what the validation sees is part of the uncertainty."""
+    for name, moved in consistency.get("parameters", {}).items():
+        estimate = estimates.get(name)
+        if estimate is None or estimate.ci95 is None:
             continue
-        for name in pair["early"]:
-            moved = _movement(pair["early"][name], pair["late"].get(name))
-            if moved is not None and moved["ratio"] > parameters.get(name, {}).get("ratio", -1.0):
-                parameters[name] = {**moved, "recording": recording}
-    return {"halves": {recording: {which: {name: _row(e) for name, e in estimates.items()}
-                                   for which, estimates in pair.items()} for recording, pair in parts.items()},
-            "parameters": parameters}
+        low = min(estimate.ci95[0], moved["early"], moved["late"])
+        high = max(estimate.ci95[1], moved["early"], moved["late"])
+        if (low, high) != tuple(estimate.ci95):
+            estimate.ci95, estimate.method = (low, high), f"{estimate.method}, widened to the halves"
+
+
+def mark_moving(estimates: dict[str, Estimate], moved: Mapping[str, dict]) -> list[str]:
+    """Each moving parameter flagged model-inadequate; the evidence, one line per parameter."""
+    evidence = []
+    for name, m in moved.items():
+        estimate = estimates.get(name)
+        if estimate is None:
+            continue
+        text = (f"model-inadequate: refitted on the early and on the late halves of the recordings it "
+                f"{m['direction']} from {m['early']:.4g} to {m['late']:.4g}, {m['ratio_jacobian']:.2g} times their "
+                f"combined 95 % interval: the model does not hold it fixed over the recordings (for a decay: with "
+                f"amplitude)")
+        estimate.flags.append(Flag(text, "model-inadequate"))
+        evidence.append(f"{name} {m['direction']} from {m['early']:.4g} (early halves) to {m['late']:.4g} (late)")
+    return evidence
 
 
 def _row(estimate: Estimate) -> list[float | None]:
     """[value, low, high] for the result file (an open or missing end: None)."""
     ends = estimate.ci95 or (math.nan, math.nan)
     return [v if math.isfinite(v) else None for v in (estimate.value, *ends)]
-
-
-def _movement(early: Estimate, late: Estimate | None) -> dict | None:
-    """How far a parameter moves from the early half to the late, in combined intervals."""
-    if late is None or early.ci95 is None or late.ci95 is None:
-        return None
-    half_widths = [(high - low) / 2 for low, high in (early.ci95, late.ci95)]
-    combined = math.hypot(*half_widths)
-    if not (math.isfinite(combined) and combined > 0):
-        return None
-    change = late.value - early.value
-    return {"early": early.value, "late": late.value, "ratio": abs(change) / combined,
-            "direction": "rises" if change > 0 else "falls"}
-
-
-def moving(consistency: Mapping, adequate: bool) -> dict[str, dict]:
-    """The parameters whose halves disagree: beyond their combined interval on a fit that
-    misses something, beyond STRICT times it on one as good as the sensors."""
-    limit = STRICT if adequate else 1.0
-    return {name: moved for name, moved in consistency.get("parameters", {}).items() if moved["ratio"] > limit}
-
-
-def mark_moving(estimates: dict[str, Estimate], moved: Mapping[str, dict]) -> list[str]:
-    """Each moving parameter flagged model-inadequate, its interval widened to hold both
-    halves' estimates; the evidence, one line per parameter."""
-    evidence = []
-    for name, m in moved.items():
-        estimate = estimates.get(name)
-        if estimate is None:
-            continue
-        low, high = estimate.ci95 if estimate.ci95 is not None else (estimate.value, estimate.value)
-        estimate.ci95 = (min(low, m["early"], m["late"]), max(high, m["early"], m["late"]))
-        estimate.method = f"{estimate.method}, widened to the halves"
-        text = (f"model-inadequate: refitted on the two halves of {m['recording']} it {m['direction']} from "
-                f"{m['early']:.4g} (early) to {m['late']:.4g} (late), {m['ratio']:.2g} times their combined 95 % "
-                f"interval: the model does not hold it fixed over the recording (for a decay: with amplitude); "
-                f"its interval is widened to hold both")
-        estimate.flags.append(Flag(text, "model-inadequate"))
-        evidence.append(f"{name} {m['direction']} from {m['early']:.4g} to {m['late']:.4g} between the halves of "
-                        f"{m['recording']}")
-    return evidence
 
 
 def separately(estimates: dict[str, Estimate], correlation: Mapping[str, Mapping[str, float | None]]
