@@ -54,14 +54,15 @@ def cost(outcome: Outcome) -> float:
 
 
 def search_until_settled(residuals: Residuals, coarse: Residuals, u0: np.ndarray, seed: int, options: GlobalOptions,
-                         progress: Callable[[str], None] | None = None, cache: dict | None = None
-                         ) -> tuple[Outcome, list[Search]]:
+                         progress: Callable[[str], None] | None = None, cache: dict | None = None,
+                         restarts: int = RESTARTS) -> tuple[Outcome, list[Search]]:
     """The fit's search (optimizer.optimize), repeated from other seeds (the second time with
     a larger population) while the residuals stay far above the noise and the searches disagree;
-    the best outcome, with every search's counts, and the searches made."""
+    the best outcome, with every search's counts, and the searches made. `restarts`: at most
+    this many more searches (0 for a pass that only prepares or checks the fit)."""
     outcome = optimize(residuals, coarse, u0, seed, options, progress, cache)
     searches = [Search(seed, options.popsize, cost(outcome))]
-    for k in range(1, RESTARTS + 1):
+    for k in range(1, restarts + 1):
         if not options.enabled or spread(outcome) <= MODEL_ERROR_LIMIT or _settled(searches):
             break
         wider = replace(options, popsize=options.popsize * 2 ** (k - 1))  # another seed, then wider too

@@ -18,7 +18,8 @@ import numpy as np
 from pendfmu.errors import FMUError, OptionError
 from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
 from pendfmu.fitting.experiment import Experiment
-from pendfmu.fitting.adequacy import assess, search_until_settled, verdict_warning
+from pendfmu.fitting.adequacy import RESTARTS, assess, search_until_settled, verdict_warning
+from pendfmu.fitting.labels import is_own
 from pendfmu.fitting.plausibility import SuspiciousData
 from pendfmu.fitting.problem import Problem, build_problem, start_vector
 from pendfmu.fitting.progress import Progress
@@ -75,8 +76,10 @@ def solve(spec: FitSpec, session: Session, upstream: Sequence[Mapping[str, float
 
 def solve_problem(problem: Problem, spec: FitSpec, session: Session,
                   upstream: Sequence[Mapping[str, float]] | None = None, validating: bool = True) -> FitResult:
-    """Search, assess and gather the result of one built problem; `validating`: refit the
-    halves of long recordings to see whether the model holds its parameters (validation.py)."""
+    """Search, assess and gather the result of one built problem; `validating`: search again
+    where the fit may have missed (adequacy.py) and refit the halves of long recordings to see
+    whether the model holds its parameters (validation.py); a pass that only prepares or
+    checks a fit does neither."""
     if not problem.free:
         raise OptionError("fix", f"{', '.join(spec.fix)} leaves nothing to fit on {spec.target_name} (and no "
                                  f"recording estimates its own values)")
@@ -96,7 +99,8 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
     try:
         u0 = start_vector(free, values, experiments)
         try:
-            outcome, searches = search_until_settled(residuals, coarse, u0, spec.seed_value, options, bar, cache)
+            outcome, searches = search_until_settled(residuals, coarse, u0, spec.seed_value, options, bar, cache,
+                                                     RESTARTS if validating else 0)
         except KeyboardInterrupt:
             raise _interrupted(problem, u0, cache) from None
         bar("uncertainty")
@@ -120,6 +124,16 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
         residuals.close()
         coarse.close()
     return found.result(spec, physical(free, u0))
+
+
+def fit_a_half(spec: FitSpec) -> dict | None:
+    """A half of the recordings fitted as the whole was (validation.py), its shared estimates;
+    None when it cannot be simulated."""
+    try:
+        result = solve_problem(build_problem(spec), spec, Session(progress=False), validating=False)
+    except FMUError:
+        return None
+    return {label: e for label, e in result.estimates.items() if not is_own(label)}
 
 
 def interval_method(asked: str, verdict: dict) -> str:
@@ -178,9 +192,10 @@ class _Found:
         """The halves of long recordings refitted (validation.py): a parameter that moves is
         marked and its interval widened; on a fit as good as the sensors only a strong
         disagreement counts, and it makes the fit model-inadequate."""
-        consistency = validate(spec, self.problem, {**self.problem.values, **self.fitted})
-        self.verdict["windows"] = consistency
         adequate = self.verdict["verdict"] == "adequate"
+        consistency = validate(spec, self.problem, {**self.problem.values, **self.fitted},
+                               None if adequate else fit_a_half)
+        self.verdict["windows"] = consistency
         if not adequate:
             hold_the_halves(self.estimates, consistency)
         moved = moving(consistency, adequate)

@@ -1,17 +1,18 @@
 """Validation built into the fit: the model against data it did not fit.
 
 Every recording long enough is split in two halves, early and late (for a free decay: large
-amplitude and small); the early halves are refitted together on their own, and so are the
-late ones, locally from the fit's optimum, each with Jacobian and sandwich intervals
-(statistics.sandwich_covariance: right when the residuals are correlated and larger than the
-noise, as where the model misses something). A parameter whose two estimates differ by more
-than their combined 95 % interval (the hypotenuse of the two half-widths) moves with time or
-amplitude: the model does not hold it fixed over the recordings.
+amplitude and small); the early halves are fitted together on their own, and so are the
+late ones. A parameter whose two estimates differ by more than their combined 95 % interval
+(the hypotenuse of the two half-widths) moves with time or amplitude: the model does not hold
+it fixed over the recordings. How the halves are fitted depends on the fit: one as good as
+the sensors allow is refitted locally from its optimum with sandwich intervals
+(statistics.sandwich_covariance), which is cheap; one that misses something is fitted as the
+whole was (its global search and intervals), because there a half may have minima the
+whole does not (a cart's late half alone put eta at 0.065 where the whole put it at 0.99).
 
 What follows from it (solve.py): on a fit whose residuals stand far above the noise
 (adequacy.py), every interval is widened to hold both halves' estimates (what the validation
-sees), and each parameter that moves beyond the halves' Jacobian intervals is flagged
-`model-inadequate`; a pair the data determine only as a combination is flagged
+sees), and each parameter that moves is flagged `model-inadequate`; a pair the data determine only as a combination is flagged
 `not-separately-identified` with that combination. On a fit whose residuals are as small as
 the sensors allow, one parameter in twenty disagrees by chance, so only a disagreement of
 STRICT times the halves' sandwich interval counts, and it makes the fit model-inadequate.
@@ -20,7 +21,7 @@ STRICT times the halves' sandwich interval counts, and it makes the fit model-in
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 
 import numpy as np
@@ -32,7 +33,7 @@ from pendfmu.fitting.problem import Problem, build_problem, start_vector
 from pendfmu.fitting.residuals import Residuals
 from pendfmu.fitting.result import Estimate, Flag
 from pendfmu.fitting.spec import FitSpec
-from pendfmu.fitting.statistics import CORRELATION_LIMIT, Z95, estimate_uncertainty, sandwich_estimates
+from pendfmu.fitting.statistics import CORRELATION_LIMIT, Z95, sandwich_estimates
 
 MIN_HALF = 400  # samples each half of a recording must hold for it to be split
 STRICT = 2.0  # on a fit as good as the sensors, a disagreement counts beyond this many combined intervals
@@ -52,65 +53,68 @@ def halves(problem: Problem) -> dict[str, list]:
     return found
 
 
-def refit_part(spec: FitSpec, recordings: list, values: Mapping[str, float]) -> dict[str, tuple] | None:
-    """The shared estimates of one part refitted on its own: the same problem with only these
-    recordings, locally from `values` (the fit's optimum); per label (Jacobian estimate,
-    sandwich estimate). None when it cannot be simulated."""
-    part = spec.with_options(recordings=tuple(recordings), params=dict(values), windows=(), segment=None,
-                             start=None, seed=None, uncertainty="jacobian", replicates=None,
-                             global_search=replace(spec.global_search, enabled=False))
-    problem = build_problem(part)
+def part_spec(spec: FitSpec, recordings: list, values: Mapping[str, float], search: bool) -> FitSpec:
+    """The spec of a part: the same fit on these recordings only, from `values` (the fit's
+    optimum); with the fit's own global search, or locally with Jacobian intervals."""
+    local = {} if search else dict(seed=None, uncertainty="jacobian", replicates=None,
+                                   global_search=replace(spec.global_search, enabled=False))
+    return spec.with_options(recordings=tuple(recordings), params=dict(values), windows=(), segment=None,
+                             start=None, **local)
+
+
+def local_refit(spec: FitSpec) -> dict[str, Estimate] | None:
+    """A part's shared estimates refitted locally from its start, with sandwich intervals;
+    None when it cannot be simulated."""
+    problem = build_problem(spec)
     residuals = Residuals(problem.experiments, problem.free, problem.values, spec.cost)
     try:
         u, jacobian, residual, _ = local_search(residuals, start_vector(problem.free, problem.values,
                                                                           problem.experiments), rounds=1)
-        plain, _ = estimate_uncertainty(problem.free, u, jacobian, residual)
-        wide, _, _ = sandwich_estimates(problem.free, u, jacobian, residual, residuals.series())
+        estimates, _, _ = sandwich_estimates(problem.free, u, jacobian, residual, residuals.series())
     except (FMUError, ArithmeticError, np.linalg.LinAlgError):
         return None
     finally:
         residuals.close()
-    return {label: (plain[label], wide[label]) for label in plain if not is_own(label)}
+    return {label: e for label, e in estimates.items() if not is_own(label)}
 
 
-def validate(spec: FitSpec, problem: Problem, values: Mapping[str, float]) -> dict:
+def validate(spec: FitSpec, problem: Problem, values: Mapping[str, float],
+             fit_part: Callable[[FitSpec], dict[str, Estimate] | None] | None = None) -> dict:
     """The early and late halves refitted and compared (module docstring): per part its
-    estimates, and per parameter how far it moves, in combined Jacobian and sandwich
-    intervals, and which way."""
+    estimates, and per parameter how far it moves, in combined intervals, and which way.
+    `fit_part` fits a part as the whole was fitted (its global search and intervals: a fit
+    that misses something); without it each part is refitted locally (local_refit)."""
     split = halves(problem)
     if not split["early"]:
         return {}
-    parts = {which: refit_part(spec, split[which], values) for which in WHICH}
+    search = fit_part is not None
+    refit = fit_part or local_refit
+    parts = {which: refit(part_spec(spec, split[which], values, search)) for which in WHICH}
     if any(part is None for part in parts.values()):
         return {"note": "a half could not be simulated at the fit's optimum: no validation"}
     parameters = {name: _movement(parts["early"][name], parts["late"].get(name)) for name in parts["early"]}
     return {"recordings": [r.label for r in split["early"]],
-            "halves": {which: {name: _row(pair[1]) for name, pair in part.items()} for which, part in parts.items()},
+            "method": "fits of the halves" if search else "local refits of the halves, sandwich intervals",
+            "halves": {which: {name: _row(e) for name, e in part.items()} for which, part in parts.items()},
             "parameters": {name: moved for name, moved in parameters.items() if moved is not None}}
 
 
-def _movement(early: tuple, late: tuple | None) -> dict | None:
-    """How far a parameter moves from the early halves to the late, in combined intervals
-    (Jacobian and sandwich)."""
-    if late is None:
+def _movement(early: Estimate, late: Estimate | None) -> dict | None:
+    """How far a parameter moves from the early halves to the late, in combined intervals."""
+    if late is None or early.ci95 is None or late.ci95 is None:
         return None
-    ratios = {}
-    for method, a, b in (("jacobian", early[0], late[0]), ("sandwich", early[1], late[1])):
-        if a.ci95 is None or b.ci95 is None:
-            return None
-        combined = math.hypot((a.ci95[1] - a.ci95[0]) / 2, (b.ci95[1] - b.ci95[0]) / 2)
-        ratios[method] = abs(b.value - a.value) / combined if combined > 0 else math.inf
-    change = late[1].value - early[1].value
-    return {"early": early[1].value, "late": late[1].value, "ratio": ratios["sandwich"],
-            "ratio_jacobian": ratios["jacobian"], "direction": "rises" if change > 0 else "falls"}
+    combined = math.hypot((early.ci95[1] - early.ci95[0]) / 2, (late.ci95[1] - late.ci95[0]) / 2)
+    change = late.value - early.value
+    return {"early": early.value, "late": late.value,
+            "ratio": abs(change) / combined if combined > 0 else (math.inf if change else 0.0),
+            "direction": "rises" if change > 0 else "falls"}
 
 
 def moving(consistency: Mapping, adequate: bool) -> dict[str, dict]:
-    """The parameters whose halves disagree: beyond their combined Jacobian interval on a fit
-    that misses something (a conservative test: the fit is marked already), beyond STRICT
-    times their sandwich interval on one as good as the sensors."""
-    key, limit = ("ratio", STRICT) if adequate else ("ratio_jacobian", 1.0)
-    return {name: moved for name, moved in consistency.get("parameters", {}).items() if moved[key] > limit}
+    """The parameters whose halves disagree: beyond their combined interval on a fit that
+    misses something, beyond STRICT times it on one as good as the sensors."""
+    limit = STRICT if adequate else 1.0
+    return {name: moved for name, moved in consistency.get("parameters", {}).items() if moved["ratio"] > limit}
 
 
 def hold_the_halves(estimates: dict[str, Estimate], consistency: Mapping) -> None:
@@ -134,7 +138,7 @@ def mark_moving(estimates: dict[str, Estimate], moved: Mapping[str, dict]) -> li
         if estimate is None:
             continue
         text = (f"model-inadequate: refitted on the early and on the late halves of the recordings it "
-                f"{m['direction']} from {m['early']:.4g} to {m['late']:.4g}, {m['ratio_jacobian']:.2g} times their "
+                f"{m['direction']} from {m['early']:.4g} to {m['late']:.4g}, {m['ratio']:.2g} times their "
                 f"combined 95 % interval: the model does not hold it fixed over the recordings (for a decay: with "
                 f"amplitude)")
         estimate.flags.append(Flag(text, "model-inadequate"))
