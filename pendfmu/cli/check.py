@@ -38,9 +38,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                      "else stop/500)")
     parser.add_argument("--input", metavar="REC.csv", help="drive the runs by this recording: time first, then "
                         "columns named like the inputs (others keep the default sine); sets --stop to its end")
-    parser.add_argument("--only", nargs="+", choices=("static", "sequence", "determinism", "rollback",
-                                                      "convergence", "inputs", "reference"),
-                        help="run only these checks")
+    checks = ("static", "sequence", "determinism", "rollback", "convergence", "inputs", "reference")
+    parser.add_argument("--only", nargs="+", choices=checks, metavar="CHECK",
+                        help=f"run only these checks: {', '.join(checks)}")
     parser.add_argument("--reference", metavar="REF.csv", help="compare with this reference result in a tolerance "
                         "tube (default: the reference results the FMU carries under extra/, if any)")
     parser.add_argument("--atol", type=float, help="absolute tolerance (default 0: "

@@ -1,11 +1,11 @@
 """Fit a model's parameters to recordings: a stage of the paper's rig, all stages in
 order, or a user's FMU or SSP system.
 
-    pendfmu fit current|cart|pendulum REC.csv [REC2.csv ...] [--params P.json] --out P2.json
-    pendfmu fit all DIR [--params P.json] --out P2.json
-    pendfmu fit --fmu X.fmu REC.csv [...] --free NAME ... [--drive INPUT[=COLUMN] ...]
-                [--match OUTPUT[=COLUMN] ...] [--params P.json] --out R.json
-    pendfmu fit --system S.ssp REC.csv [...] --free NAME ... (as --fmu)
+    pendfmu fit current|cart|pendulum REC.csv ... [--params P.json] --out R.json
+    pendfmu fit all DIR [--params P.json] --out R.json
+    pendfmu fit --fmu X.fmu REC.csv ... --free NAME ... [--drive INPUT[=COLUMN]]
+                [--match OUTPUT[=COLUMN]] [--params P.json] --out R.json
+    pendfmu fit --system S.ssp REC.csv ... --free NAME ... (as --fmu)
 
 Recordings are fitted jointly with shared parameters; each recording's sidecar fixes its
 own values (e.g. m_p = 0 for the cart without pendulum). `fit all` sorts a folder's
