@@ -24,7 +24,7 @@ import numpy as np
 
 from pendfmu.check import exercise
 from pendfmu.check.fmu import INCONCLUSIVE, CheckResult, Driver, Target, call_error
-from pendfmu.check.stimulus import excitation, reference_run
+from pendfmu.check.stimulus import excitation, reference_run, unexercised
 
 DRIVER_ORDER = 4.0
 """The order of the checker's own Model Exchange integration (classical Runge-Kutta)."""
@@ -89,8 +89,7 @@ def verdict(target: Target, kind: str, coarse: np.ndarray, half: np.ndarray, qua
         figure += f" ({relative[j]:.2g} of its {_scale_name(target, j)}, tolerance {tolerance:g})"
     if not exercise.moved(quarter).any():
         return CheckResult(name, INCONCLUSIVE, figure + stimulus,
-                           "nothing was exercised: no output moved, and a constant is step-independent; "
-                           "drive the FMU with --input REC.csv, or a larger --input-limit")
+                           unexercised(target, "no output moved (a constant is step-independent)"))
     expected = DRIVER_ORDER if kind == "ME" else target.stated_order
     moving = [k for k in np.argsort(-relative) if relative[k] > tolerance
               and not (expected is not None and _order(d1[k], d2[k], scale[k]) >= expected - ORDER_SLACK)]

@@ -20,7 +20,7 @@ import numpy as np
 from pendfmu.check import exercise
 from pendfmu.check.fmu import (INCONCLUSIVE, CheckResult, Driver, Target, call_error, compare, first_difference,
                                varied_value)
-from pendfmu.check.stimulus import excitation, reference_run
+from pendfmu.check.stimulus import excitation, reference_run, unexercised
 from pendfmu.errors import FMUError
 
 MAX_PARAMETERS = 4
@@ -66,16 +66,8 @@ def fresh_instances(target: Target, kind: str, first: np.ndarray, second: np.nda
                            + first_difference(target, first, second, times(target, len(first))))
     figure = f"identical ({first.shape[0]} points x {first.shape[1]} outputs); " + exercise.movement(target, first)
     if not exercise.moved(first).any():
-        return CheckResult(name, INCONCLUSIVE, figure + stimulus, nothing_moved(target))
+        return CheckResult(name, INCONCLUSIVE, figure + stimulus, unexercised(target, "no output moved"))
     return CheckResult(name, True, figure + stimulus)
-
-
-def nothing_moved(target: Target) -> str:
-    """Why a row whose outputs never moved is inconclusive, with what the search tried."""
-    used = excitation(target)
-    return (f"nothing was exercised: no output moved under {used.label}"
-            + (f" (the search: {used.tried_text()})" if len(used.tried) > 1 else "")
-            + "; drive the FMU with --input REC.csv, or a larger --input-limit")
 
 
 def reset(target: Target, kind: str, first: np.ndarray) -> CheckResult:
@@ -149,12 +141,11 @@ def _reset_row(target, unit, name, first, varied, fresh, effect, tried) -> Check
     if problems:
         return CheckResult(name, False, figure + stimulus, "; ".join(problems))
     if not exercise.moved(first).any():
-        return CheckResult(name, INCONCLUSIVE, figure + stimulus, nothing_moved(target))
+        return CheckResult(name, INCONCLUSIVE, figure + stimulus, unexercised(target, "no output moved"))
     if varied and effect == 0:
         return CheckResult(name, INCONCLUSIVE, figure + " (no parameter tried changes the outputs)" + stimulus,
-                           f"nothing was exercised: none of {', '.join(tried)} changes the outputs under "
-                           f"{excitation(target).label}, so a value kept across fmi2Reset would not show; "
-                           f"choose another parameter or value")
+                           unexercised(target, f"none of {', '.join(tried)} changes the outputs (a value kept "
+                                               f"across fmi2Reset would not show)") + ", or choose another parameter")
     return CheckResult(name, True, figure + stimulus)
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from pendfmu.check import exercise
 from pendfmu.check.fmu import INCONCLUSIVE, CheckResult, Target, call_error
-from pendfmu.check.stimulus import excitation, reference_run
+from pendfmu.check.stimulus import excitation, reference_run, unexercised
 
 
 def run(target: Target, kind: str) -> list[CheckResult]:
@@ -28,15 +28,13 @@ def _row(target: Target, kind: str) -> CheckResult:
     except Exception as error:
         return CheckResult(name, False, "run failed", f"with {used.label}: {call_error(error)}")
     found = exercise.events(target, seen)
-    searched = f"; the search tried {len(used.tried)}" if used.tried else ""
+    searched = f"; stimulus {len(used.tried)} of the search" if len(used.tried) > 1 else ""
     figure = f"{found.describe(target.step)}; {exercise.movement(target, seen.rows)} [{used.label}{searched}]"
-    notes = [f"the search: {used.tried_text()}"] if len(used.tried) > 1 else []
     if not exercise.moved(seen.rows).any():
-        return CheckResult(name, INCONCLUSIVE, figure, "; ".join(
-            ["nothing was exercised: no output moved, so no event could show"] + notes))
+        return CheckResult(name, INCONCLUSIVE, figure, unexercised(target, "no output moved, so no event could show"))
     if not len(found):
-        return CheckResult(name, INCONCLUSIVE, figure, "; ".join(
-            ["nothing was exercised for the event checks: no event seen (no mode change, event iteration, sign "
-             "change, kink or jump of an output); an FMU without events is not at fault, but rollback around events "
-             "and event location in the convergence check exercised none"] + notes))
-    return CheckResult(name, True, figure, "; ".join(notes))
+        return CheckResult(name, INCONCLUSIVE, figure, unexercised(
+            target, "no event seen (no mode change, event iteration, sign change, kink or jump of an output): an FMU "
+                    "without events is not at fault, but rollback around events and event location in the convergence "
+                    "check exercised none"))
+    return CheckResult(name, True, figure)

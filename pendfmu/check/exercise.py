@@ -129,7 +129,7 @@ def events(target: Target, seen: Observed) -> Events:
         if len(crossings):
             kinds.setdefault("sign changes", []).extend(int(k) for k in crossings)
         for name, found in (("kinks", _kinks(y)), ("jumps", _jumps(y))):
-            found = [k for k in found if k not in excused]
+            found = [k for k in found if k not in excused and k < len(rows)]
             if found:
                 kinds.setdefault(f"{name} in {v.name}", []).extend(found)
     kinds = {kind: sorted(set(found)) for kind, found in kinds.items() if found}
@@ -146,12 +146,14 @@ def _merge(points: list[int]) -> list[int]:
 
 
 def _kinks(y: np.ndarray) -> list[int]:
-    """Points where the slope changes far more than around them (the point after the kink)."""
-    return [k + 1 for k in _outstanding(np.abs(np.diff(y, 2)), _floor(y))]
+    """Where the slope changes far more than around: the first point after the kink (a kink
+    at point k or inside the step from k - 1 to k shows in the second difference centred on
+    k - 1, first; the one after it may show too and is merged)."""
+    return [k + 2 for k in _outstanding(np.abs(np.diff(y, 2)), _floor(y))]
 
 
 def _jumps(y: np.ndarray) -> list[int]:
-    """Points where the value changes far more than around them."""
+    """Where the value changes far more than around: the first point after the jump."""
     return [k + 1 for k in _outstanding(np.abs(np.diff(y)), _floor(y))]
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from pendfmu.check.fmu import INCONCLUSIVE, CheckResult, Driver, Target, call_error
-from pendfmu.check.stimulus import probe_values
+from pendfmu.check.stimulus import declared, levels, nominal, probe_values, start
 from pendfmu.errors import FMUError
 
 MAX_STEPS = 200
@@ -39,9 +39,9 @@ def run(target: Target, kind: str) -> list[CheckResult]:
         return [CheckResult(name, INCONCLUSIVE, "no outputs to compare", "nothing was exercised: no outputs")]
     steps = max(1, min(MAX_STEPS, int(round(target.stop / target.step / 5))))
     starts = np.array([float(v.start) if v.start is not None else 0.0 for v in target.inputs])
-    covered, refused, silent = [], [], []
+    runs, refused, silent = 0, [], []
     for j, v in enumerate(target.inputs):
-        values, declared = probe_values(target, v)
+        values, in_range = probe_values(target, v)
         baseline, responded = None, False
         for value in values:
             held = starts.copy()
@@ -49,21 +49,21 @@ def run(target: Target, kind: str) -> list[CheckResult]:
             try:
                 rows = _held_run(target, kind, held, steps)
             except _NotFinite as bad:
-                return [_not_finite(target, kind, v, value, declared, bad)]
+                return [_not_finite(target, kind, v, value, in_range, bad)]
             except FMUError as error:
-                if declared:
+                if in_range:
                     return [CheckResult(name, False, f"{v.name} = {value:g} refused",
                                         f"input {v.name} = {value:g} is inside its declared range "
                                         f"[{values[0]:g}, {values[-1]:g}] but the FMU refused it: "
                                         + call_error(error))]
                 refused.append(f"{v.name} = {value:g}")
                 continue
+            runs += 1
             baseline = rows if baseline is None else baseline
             responded = responded or not np.array_equal(rows, baseline)
-        covered.append(_covered(v, values, declared))
         if not responded:
             silent.append(v.name)
-    return [_row(target, kind, covered, refused, silent)]
+    return [_row(target, kind, _covered(target, runs), refused, silent)]
 
 
 def _held_run(target: Target, kind: str, held: np.ndarray, steps: int) -> np.ndarray:
@@ -91,26 +91,38 @@ def _finite(row: np.ndarray, step: int) -> None:
         raise _NotFinite(step, int(bad[0]), float(row[bad[0]]))
 
 
-def _covered(v, values: list[float], declared: bool) -> str:
-    span = f"[{min(values):g}, {max(values):g}]"
-    return (f"{v.name} {len(values)} values over declared {span}" if declared
-            else f"{v.name} {len(values)} values in {span} by decades (no declared range)")
+def _covered(target: Target, runs: int) -> str:
+    """'finite, 9 runs: u 0 ± 1, 10, 100, 1000 V by decades (no declared range)'."""
+    parts = [f"{v.name} {len(values)} values over its declared [{min(values):g}, {max(values):g}]"
+             for values, v in ((probe_values(target, v)[0], v) for v in target.inputs if declared(v))]
+    around = [v for v in target.inputs if not declared(v)]
+    if around:
+        steps = ", ".join(f"{level:g}" for level in levels(target.input_limit))
+        if len(around) == 1:
+            v = around[0]
+            unit = f" {v.unit}" if getattr(v, "unit", None) else ""
+            scaled = ", ".join(f"{level * nominal(v):g}" for level in levels(target.input_limit))
+            parts.append(f"{v.name} {start(v):g} ± {scaled}{unit} by decades (no declared range)")
+        else:
+            parts.append(f"{', '.join(v.name for v in around)} ± {steps} x nominal around their start values by "
+                         f"decades (no declared range)")
+    return f"finite, {runs} runs: " + "; ".join(parts)
 
 
-def _not_finite(target: Target, kind: str, v, value: float, declared: bool, bad: _NotFinite) -> CheckResult:
+def _not_finite(target: Target, kind: str, v, value: float, in_range: bool, bad: _NotFinite) -> CheckResult:
     name = f"inputs: finite outputs {kind}"
     output = target.outputs[bad.output].name
     values, _ = probe_values(target, v)
-    where = (f"in its declared range [{values[0]:g}, {values[-1]:g}]" if declared
+    where = (f"in its declared range [{values[0]:g}, {values[-1]:g}]" if in_range
              else f"probed by decades, no declared range")
     return CheckResult(name, False, f"{v.name} = {value:g}: {output} = {bad.value}",
                        f"with input {v.name} held at {value:g} ({where}) output {output} turned {bad.value} at "
                        f"t = {bad.step * target.step:.6g} s while every call returned OK")
 
 
-def _row(target: Target, kind: str, covered: list[str], refused: list[str], silent: list[str]) -> CheckResult:
+def _row(target: Target, kind: str, covered: str, refused: list[str], silent: list[str]) -> CheckResult:
     name = f"inputs: finite outputs {kind}"
-    figure = "finite: " + "; ".join(covered)
+    figure = covered
     if silent:
         figure += f"; no output responded to {', '.join(silent)}"
     message = f"refused (no declared range): {', '.join(refused)}" if refused else ""

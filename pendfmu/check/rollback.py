@@ -20,7 +20,7 @@ import numpy as np
 
 from pendfmu.check import exercise
 from pendfmu.check.fmu import INCONCLUSIVE, CheckResult, Driver, Target, call_error, compare, first_difference
-from pendfmu.check.stimulus import excitation, reference_run
+from pendfmu.check.stimulus import excitation, reference_run, unexercised
 
 MAX_MODE_SAVES = 8  # states saved at the first instants of this many mode combinations at most
 MAX_EVENT_SAVES = 8  # states saved around events at most (two per event: before and after)
@@ -122,9 +122,8 @@ def _row(target: Target, kind: str, plan: Plan, saved: dict, worst: float, probl
     if problems:
         return CheckResult(name, False, figure, "; ".join(problems[:2]))
     if not exercised:
-        return CheckResult(name, INCONCLUSIVE, figure, "nothing was exercised: no output moved after any save, so "
-                           "a state that restores nothing would pass too; drive the FMU with --input REC.csv, or a "
-                           "larger --input-limit")
+        return CheckResult(name, INCONCLUSIVE, figure, unexercised(target, "no output moved after any save (a state "
+                                                                       "that restores nothing would pass too)"))
     return CheckResult(name, True, figure)
 
 
@@ -147,7 +146,7 @@ def _serialized(target: Target, kind: str, unit: Driver, plan: Plan, saved: dict
                            f"deserialized does not reproduce the run: "
                            + first_difference(target, again, reference[k:], np.arange(k, n + 1) * h))
     if not exercise.moved(reference[k:]).any():
-        return CheckResult(name, INCONCLUSIVE, figure, "nothing was exercised: no output moved after the save")
+        return CheckResult(name, INCONCLUSIVE, figure, unexercised(target, "no output moved after the save"))
     return CheckResult(name, True, figure)
 
 

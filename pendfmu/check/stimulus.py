@@ -204,6 +204,16 @@ def reference_run(target: Target, kind: str) -> exercise.Observed:
     return cache[kind]
 
 
+def unexercised(target: Target, what: str) -> str:
+    """The reason of an INCONCLUSIVE row: 'nothing was exercised under <stimulus>: <what>',
+    with what the search tried and what the user can do about it."""
+    used = excitation(target)
+    searched = f" (the search: {used.tried_text()})" if len(used.tried) > 1 else ""
+    advice = ("a recording that moves it" if used.recording is not None
+              else "--input REC.csv, or a larger --input-limit")
+    return f"nothing was exercised under {used.label}{searched}: {what}; drive the FMU with {advice}"
+
+
 def search(target: Target) -> Excitation:
     """The recording when there is one, else the first candidate that moves an output and
     shows an event (or the one that showed most); see the module's docstring."""

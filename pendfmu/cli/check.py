@@ -3,10 +3,11 @@
 Static: the model description (fmpy's validate_fmu), every fmi2 function FMI 2.0 requires
 exported by the binary, the GUID checked by fmi2Instantiate, the declared capabilities
 working. Dynamic, for Co-Simulation and Model Exchange (whichever the FMU has): misuse
-answered with an error status (run in child processes: a crash is a FAIL), two fresh
-instances and a reset instance giving identical outputs, FMU state rollback and
-serialization reproducing a run bit for bit, step-size convergence (h, h/2, h/4) with its
-observed order, and finite outputs over each input's declared range.
+answered with an error status (run in child processes: a crash is a FAIL), the events the
+stimulus shows, two fresh instances and a reset instance giving identical outputs, FMU state
+rollback (around events too) and serialization reproducing a run bit for bit, step-size
+convergence (h, h/2, h/4) within --step-rtol or at the --order stated, and finite outputs over
+each input's declared range, else by decades up to --input-limit times its nominal.
 
 Without --input the stimulus is searched for (pendfmu/check/stimulus.py): each input over its
 declared range, else around its start value at 1, 10, 100, ... times its nominal up to
