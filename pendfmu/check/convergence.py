@@ -74,8 +74,7 @@ def verdict(target: Target, kind: str, coarse: np.ndarray, half: np.ndarray, qua
     """The row: PASS, FAIL (moves with the step beyond the tolerance) or INCONCLUSIVE."""
     name = f"convergence: h, h/2, h/4 {kind}"
     h, tolerance = target.step, target.step_rtol
-    d1 = np.nan_to_num(np.nanmax(np.abs(coarse - half), axis=0), nan=np.inf)
-    d2 = np.nan_to_num(np.nanmax(np.abs(half - quarter), axis=0), nan=np.inf)
+    d1, d2 = _largest(coarse, half), _largest(half, quarter)
     scale = exercise.scales(target, quarter)
     relative = np.maximum(d1, d2) / scale
     j = int(np.argmax(relative))
@@ -100,6 +99,13 @@ def verdict(target: Target, kind: str, coarse: np.ndarray, half: np.ndarray, qua
         return CheckResult(name, True, figure + stimulus)
     k = int(moving[0])
     return CheckResult(name, False, figure + stimulus, _moves(target, k, d1[k], d2[k], scale[k], expected))
+
+
+def _largest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Each output's largest difference between two runs (NaN in both: none; in one: inf)."""
+    same = np.isnan(a) & np.isnan(b)
+    difference = np.where(same, 0.0, np.abs(a - b))
+    return np.where(np.isnan(difference), np.inf, difference).max(axis=0)
 
 
 def _order(d1: float, d2: float, scale: float) -> float:

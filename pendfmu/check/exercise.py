@@ -79,24 +79,25 @@ def observe(target: Target, kind: str, stimulus, h: float, stop: float, paramete
 
 def scales(target: Target, rows: np.ndarray) -> np.ndarray:
     """Each output's scale: its declared nominal, else how far it moved (range), else 1."""
-    moved = ranges(rows)
+    spread = ranges(rows)
     nominal = np.array([float(v.nominal) if getattr(v, "nominal", None) else np.nan for v in target.outputs])
-    scale = np.where(np.isfinite(nominal), np.abs(nominal), moved)
+    scale = np.where(np.isfinite(nominal), np.abs(nominal), spread)
     return np.where(scale > 0, scale, 1.0)
 
 
 def ranges(rows: np.ndarray) -> np.ndarray:
-    """max - min of each output over the run (NaN-free; 0 for an empty run)."""
-    if not len(rows):
+    """max - min of each output's finite values over the run (0 for none)."""
+    finite = np.isfinite(rows)
+    if not rows.size:
         return np.zeros(rows.shape[1] if rows.ndim == 2 else 0)
-    with np.errstate(invalid="ignore"):
-        spread = np.nanmax(rows, axis=0) - np.nanmin(rows, axis=0)
-    return np.nan_to_num(spread, nan=0.0)
+    high = np.where(finite, rows, -np.inf).max(axis=0)
+    low = np.where(finite, rows, np.inf).min(axis=0)
+    return np.where(finite.any(axis=0), high - low, 0.0)
 
 
 def moved(rows: np.ndarray) -> np.ndarray:
     """Which outputs moved by more than rounding of their size."""
-    size = np.nan_to_num(np.nanmax(np.abs(rows), axis=0), nan=0.0) if len(rows) else np.zeros(rows.shape[1])
+    size = np.where(np.isfinite(rows), np.abs(rows), 0.0).max(axis=0) if rows.size else np.zeros(rows.shape[1])
     return ranges(rows) > ROUNDING * np.maximum(size, 1e-300)
 
 

@@ -140,7 +140,7 @@ def _serialized(target: Target, kind: str, unit: Driver, plan: Plan, saved: dict
     again = unit.run(h, target.stop, excitation(target).at(h))
     unit.fmu.freeFMUstate(copy)
     difference = compare(again, reference[k:])
-    figure = f"{len(data)} bytes, saved at t = {k * h:.6g} s; max difference {difference:.3g}"
+    figure = f"{len(data)} bytes, saved at t = {k * h:.6g} s; max difference {difference:.3g} [{excitation(target).label}]"
     if difference != 0.0:
         return CheckResult(name, False, figure, f"a state serialized at t = {k * h:.6g} s ({len(data)} bytes) and "
                            f"deserialized does not reproduce the run: "

@@ -7,8 +7,8 @@ without `--input`, `search` looks for excitation, cheaply and in a bounded numbe
 - each Real input is driven over its declared [min, max] when it has one (a declared range
   comes first: it says what the FMU is made for); without one, around its start value with an
   amplitude of 1, 10, 100, ... times its nominal (1 when not declared), by decades up to
-  `limit` times it (`pendfmu check --input-limit`, default fmu.DEFAULT_INPUT_LIMIT, 1000); one side of a
-  half-declared range still bounds it;
+  `target.input_limit` times it (`pendfmu check --input-limit`, default
+  fmu.DEFAULT_INPUT_LIMIT, 1000); one side of a half-declared range still bounds it;
 - at each amplitude three shapes, in this order: a sine (one and a half periods over the run,
   each input its own phase), steps (up, back, down, back) and a ramp (a triangle up, down,
   back); every input is held over each communication step;
@@ -35,6 +35,7 @@ import numpy as np
 
 from pendfmu.check import exercise
 from pendfmu.check.fmu import Target, call_error
+
 PROBE_POINTS = 500
 """Communication points of a probe run at most (its step is a multiple of h)."""
 SHAPES = ("sine", "steps", "ramp")
@@ -89,7 +90,7 @@ class Excitation:
             ignored = f", its columns {', '.join(self.ignored)} ignored (not inputs)" if self.ignored else ""
             return f"recording {self.origin}{ignored}"
         if not self.drives:
-            return "no inputs"
+            return "its own dynamics (no inputs)"
         if len(self.drives) <= MAX_LABELLED:
             return f"{self.shape} " + ", ".join(d.label() for d in self.drives)
         declared = sum(d.declared for d in self.drives)
@@ -150,10 +151,12 @@ def declared(v) -> bool:
 
 
 def start(v) -> float:
+    """The variable's start value, 0 when it has none."""
     return float(v.start) if v.start is not None else 0.0
 
 
 def nominal(v) -> float:
+    """The variable's declared nominal (its size), 1 when it declares none (FMI's default)."""
     value = getattr(v, "nominal", None)
     return abs(float(value)) if value not in (None, "") and float(value) != 0 else 1.0
 
