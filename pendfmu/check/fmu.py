@@ -56,16 +56,24 @@ class CheckResult:
         return self.verdict in (PASS, WARN)
 
 
-@dataclass
-class Span:
-    """Where an input is exercised: [low, high] and whether the FMU declared it."""
-    low: float
-    high: float
-    declared: bool
+DEFAULT_INPUT_LIMIT = 1000.0
+"""How far an input without a declared range is driven: up to this many times its nominal
+(1, 10, 100, 1000 times; stimulus.py, the inputs check)."""
+DEFAULT_STEP_RTOL = 1e-4
+"""How far a result may move with the communication step, of its nominal or range (convergence.py)."""
 
 
 class Target:
-    """An FMU file: its description, unzipped binary, interfaces, inputs, outputs, parameters."""
+    """An FMU file: its description, unzipped binary, interfaces, inputs, outputs, parameters.
+
+    The options of the dynamic checks are attributes (run_battery sets them): `input_limit`,
+    how far an input without a declared range is driven (stimulus.py); `stated_order`, the order
+    of a fixed-step solver the FMU is built around, and `step_rtol`, the convergence tolerance
+    (convergence.py)."""
+
+    input_limit = DEFAULT_INPUT_LIMIT
+    stated_order: float | None = None
+    step_rtol = DEFAULT_STEP_RTOL
 
     def __init__(self, path: str | Path, stop: float | None = None, step: float | None = None,
                  recording: str | Path | None = None):
@@ -94,7 +102,11 @@ class Target:
         experiment = self.md.defaultExperiment
         declared_stop = float(experiment.stopTime) if experiment is not None and experiment.stopTime else None
         declared_step = float(experiment.stepSize) if experiment is not None and experiment.stepSize else None
-        self.recording = read_inputs(recording, [v.name for v in self.inputs]) if recording else None
+        self.recording, self.ignored_columns = None, []
+        if recording:
+            times, columns, self.ignored_columns = read_inputs(recording, [v.name for v in self.inputs])
+            self.recording = (times, columns)
+        self.recording_name = Path(recording).name if recording else ""
         if stop is None and self.recording is not None:
             stop = float(self.recording[0][-1]) or None
         self.stop = stop if stop is not None else (declared_stop or 1.0)
@@ -109,58 +121,34 @@ class Target:
     def interface(self, kind: str):
         return self.md.coSimulation if kind == "CS" else self.md.modelExchange
 
-    def span(self, v) -> Span:
-        """The declared [min, max] of an input, else its start value +- max(1, |start|/2)."""
-        start = float(v.start) if v.start is not None else 0.0
-        low = float(v.min) if v.min is not None else None
-        high = float(v.max) if v.max is not None else None
-        if low is not None and high is not None and math.isfinite(low) and math.isfinite(high) and high - low < 1e12:
-            return Span(low, high, True)
-        half = max(1.0, abs(start) / 2)
-        return Span(start - half if low is None else max(low, start - half),
-                    start + half if high is None else min(high, start + half), False)
-
-    def stimulus(self, hold: float) -> Callable[[float], np.ndarray]:
-        """Each Real input a slow sine (one and a half periods over the run, its own phase)
-        over its span, held constant over intervals of `hold` so that runs with the
-        communication step hold, hold/2, ... see the same input."""
-        spans = [self.span(v) for v in self.inputs]
-        stop = self.stop
-        times, columns = self.recording if self.recording is not None else (None, {})
-        recorded = [columns.get(v.name) for v in self.inputs]
-
-        def at(t: float) -> np.ndarray:
-            t = math.floor(t / hold + 1e-9) * hold
-            row = np.array([0.5 * (s.low + s.high) + 0.5 * (s.high - s.low) *
-                            math.sin(3 * math.pi * t / stop + 0.7 * k) for k, s in enumerate(spans)])
-            if times is not None:  # recorded inputs: the last sample at or before t
-                i = max(0, int(np.searchsorted(times, t + 1e-12 * max(1.0, abs(t)), side="right")) - 1)
-                for k, column in enumerate(recorded):
-                    if column is not None:
-                        row[k] = column[i]
-            return row
-        return at
-
     def varied_parameter(self):
         """(variable, a non-default value) of a Real parameter, or None: the parameter a
         reset check changes. Prefers one whose value is nonzero (a mass, a gain)."""
         candidates = sorted(self.parameters, key=lambda v: (v.start is None or float(v.start) == 0.0))
         for v in candidates:
-            start = float(v.start) if v.start is not None else 0.0
-            value = start * 1.25 if start != 0 else 0.5
-            low = float(v.min) if v.min is not None else -math.inf
-            high = float(v.max) if v.max is not None else math.inf
-            if not low <= value <= high:
-                value = start * 0.8 if start != 0 else (low + start) / 2 if math.isfinite(low) else start - 0.5
-            if low <= value <= high and value != start:
+            value = varied_value(v)
+            if value is not None:
                 return v, value
         return None
 
 
-def read_inputs(path: str | Path, inputs: list[str]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """(times, {input: values}) from a CSV file whose first column is time and whose other
-    columns are named like the FMU's inputs (an input without a column keeps the default
-    stimulus). Bad input (exit 2) for a missing file, an unknown column or a bad number."""
+def varied_value(v) -> float | None:
+    """A value of parameter v other than its start value, inside its declared range: 1.25 or
+    0.8 times the start, else 0.5 or halfway to its minimum; None when none fits."""
+    start = float(v.start) if v.start is not None else 0.0
+    value = start * 1.25 if start != 0 else 0.5
+    low = float(v.min) if v.min is not None else -math.inf
+    high = float(v.max) if v.max is not None else math.inf
+    if not low <= value <= high:
+        value = start * 0.8 if start != 0 else (low + start) / 2 if math.isfinite(low) else start - 0.5
+    return value if low <= value <= high and value != start else None
+
+
+def read_inputs(path: str | Path, inputs: list[str]) -> tuple[np.ndarray, dict[str, np.ndarray], list[str]]:
+    """(times, {input: values}, ignored columns) from a CSV file whose first column is time: a
+    whole recording, its columns named like the FMU's inputs drive them (an input without a
+    column keeps the default stimulus) and the others (measured outputs...) are ignored. Bad
+    input (exit 2) for a missing file, no column that is an input, or a bad number."""
     import csv
 
     path = Path(path)
@@ -172,16 +160,21 @@ def read_inputs(path: str | Path, inputs: list[str]) -> tuple[np.ndarray, dict[s
     if len(rows) < 2:
         raise BadInput(f"{path}: needs a header (time first, then input names) and at least one row")
     header = [name.strip() for name in rows[0]]
-    unknown = [name for name in header[1:] if name not in inputs]
-    if unknown:
-        raise BadInput(f"{path}: column {unknown[0]!r} is not an input of the FMU (inputs: {', '.join(inputs)})")
+    ignored = [name for name in header[1:] if name not in inputs]
+    if len(ignored) == len(header) - 1:
+        raise BadInput(f"{path}: column {ignored[0]!r} is not an input of the FMU (inputs: {', '.join(inputs)}); "
+                       f"no column drives an input" if ignored else f"{path}: no column besides time")
+    used = [0] + [j for j, name in enumerate(header) if j and name in inputs]
+    body = [row for row in rows[1:] if row]
+    if any(len(row) != len(header) for row in body):
+        raise BadInput(f"{path}: every row needs {len(header)} columns, like the header")
     try:
-        data = np.array([[float(x) for x in row] for row in rows[1:] if row], dtype=float)
+        data = np.array([[float(row[j]) for j in used] for row in body], dtype=float)
     except ValueError as error:
         raise BadInput(f"{path}: {error}") from None
-    if data.shape[1] != len(header) or not np.all(np.isfinite(data)) or np.any(np.diff(data[:, 0]) < 0):
-        raise BadInput(f"{path}: every row needs {len(header)} finite numbers, time not decreasing")
-    return data[:, 0], {name: data[:, j] for j, name in enumerate(header) if j}
+    if not np.all(np.isfinite(data)) or np.any(np.diff(data[:, 0]) < 0):
+        raise BadInput(f"{path}: time and the inputs' columns need finite numbers, time not decreasing")
+    return data[:, 0], {header[j]: data[:, i] for i, j in enumerate(used) if i}, ignored
 
 
 class Driver:
@@ -202,6 +195,7 @@ class Driver:
         self.nz = md.numberOfEventIndicators if kind == "ME" else 0
         self.next_event = math.inf
         self.signs = None  # ME: the event indicators' signs at the end of the last step
+        self.events: list[float] = []  # ME: the communication point before each event met (exercise.py)
 
     # -- set up
 
@@ -373,6 +367,7 @@ class Driver:
         return self.fmu.failure(f"{function} asked to terminate the simulation", function, since)
 
     def _event_at_point(self) -> None:
+        self.events.append(self.time)
         self.fmu.enterEventMode()
         self._event_iteration()
         self.fmu.enterContinuousTimeMode()
