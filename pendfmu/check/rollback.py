@@ -67,9 +67,9 @@ def run(target: Target, kind: str) -> list[CheckResult]:
         if interface.canSerializeFMUstate:
             k = changed if changed in saved else points[len(points) // 2]
             name_s = f"rollback: serialized state {kind}"
-            data = unit.fmu.serializeFMUstate(saved[k][0][0])
-            copy = unit.fmu.deSerializeFMUstate(data)
-            unit.set_state((copy, *saved[k][0][1:]))
+            data = unit.serialize_state(saved[k][0])
+            copy = unit.deserialize_state(data, saved[k][0])
+            unit.set_state(copy)
             again = unit.run(h, target.stop, stimulus)
             difference = compare(again, reference[k:])
             message = "" if difference == 0.0 else (
@@ -77,7 +77,7 @@ def run(target: Target, kind: str) -> list[CheckResult]:
                 f"the run: " + first_difference(target, again, reference[k:], np.arange(k, n + 1) * h))
             results.append(CheckResult(name_s, difference == 0.0, f"{len(data)} bytes; max difference {difference:.3g}",
                                        message))
-            unit.fmu.freeFMUstate(copy)
+            unit.free_state(copy)
         for state, _ in saved.values():
             unit.free_state(state)
         return results
