@@ -27,7 +27,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from pendfmu.check.variables import Reader, accessor, slot
-from pendfmu.errors import FMUError
+from pendfmu.errors import FMUError, PendfmuError
 from pendfmu.simulator.fmi import instantiate_fmu
 
 DOUBLE_P = ctypes.POINTER(ctypes.c_double)
@@ -39,9 +39,9 @@ MAX_SUBSTEPS = 20_000
 """Substeps one communication step may take before the model counts as too stiff for the driver."""
 
 
-class StiffModel(RuntimeError):
+class StiffModel(PendfmuError, RuntimeError):
     """The driver's explicit integrator cannot follow the model at this step: a limit of the
-    check, not a defect of the FMU."""
+    check, not a defect of the FMU (a row that meets it is INCONCLUSIVE)."""
 
 
 class Driver:

@@ -33,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pendfmu.check.fmu import WARN, CheckResult, Driver, Target, call_error
+from pendfmu.check.driver import StiffModel
+from pendfmu.check.fmu import INCONCLUSIVE, WARN, CheckResult, Driver, Target, call_error
 from pendfmu.check.reference_files import Reference, carried, read_reference_csv  # noqa: F401 (the API)
 from pendfmu.check.variables import Reader, elements, slot
 
@@ -284,6 +285,8 @@ def run_on_grid(target: Target, kind: str, reference: Reference,
             elif inputs is not None:  # a jump of the inputs: set, no time passes
                 unit.set_inputs(inputs[k + 1])
             out[k + 1] = reader.read(unit.fmu)
+    except StiffModel:
+        raise
     except Exception as error:
         raise RuntimeError(f"the run on the reference's grid failed: {call_error(error)}") from None
     finally:
@@ -357,6 +360,8 @@ def _compared(target: Target, kind: str, reference: Reference, atol: float, rtol
         return []
     try:
         result = run_on_grid(target, kind, reference, target.recording)
+    except StiffModel as error:
+        return [CheckResult(f"reference: run {kind}", INCONCLUSIVE, "not run to the end", str(error))]
     except Exception as error:
         return [CheckResult(f"reference: run {kind}", False, "run failed", str(error))]
     compared = compare(reference.times, reference.outputs, result, atol, rtol, ttol,

@@ -17,6 +17,7 @@ import sys
 import numpy as np
 from fmpy.validation import validate_fmu
 
+from pendfmu.check.driver import StiffModel
 from pendfmu.check.fmu import INCONCLUSIVE, WARN, CheckResult, Driver, Target, call_error
 from pendfmu.check.variables import FLOAT, Element
 from pendfmu.errors import FMUError
@@ -152,6 +153,8 @@ def check_capabilities(target: Target, kind: str) -> CheckResult:
             unit.step(target.step / 2, None)
             unit.step(target.step / 3, None)
             tried.append("variable steps")
+    except StiffModel as error:
+        return CheckResult(name, INCONCLUSIVE, "not run to the end", str(error))
     except Exception as error:
         return CheckResult(name, False, "call failed", "a declared capability failed: " + call_error(error))
     finally:
