@@ -10,10 +10,10 @@ located by bisection on the event indicators, so that a discrete change happens 
 instant whatever the communication step; a discrete input (FMI: settable only in Event Mode
 there) that changes at a communication point is set in an event.
 
-When the FMU asks to end the simulation (terminateSimulation from fmi2NewDiscreteStates,
-fmi3UpdateDiscreteStates, the integrator step, fmi3DoStep, or fmi2DoStep's fmi2Discard with
-fmi2Terminated; FMI 2.0 sections 3.2.2 and 4.2.3, FMI 3.0 sections 3.2.1 and 4.2.1), that is
-its right, not a failure: the driver calls nothing more that computes, the time goes on,
+When the FMU asks to end the simulation (terminateSimulation from fmi2NewDiscreteStates or
+fmi2CompletedIntegratorStep, FMI 2.0 section 3.2.2, or fmi2DoStep's fmi2Discard with
+fmi2Terminated, section 4.2.3; the terminateSimulation arguments of fmi3UpdateDiscreteStates,
+fmi3CompletedIntegratorStep and fmi3DoStep in FMI 3.0), that is its right, not a failure: the driver calls nothing more that computes, the time goes on,
 the outputs keep the values they had at the end, and `ended` says when it was. A state
 restored from before that instant (rollback) runs again.
 """
@@ -56,7 +56,7 @@ class Driver:
         self.fmu = instantiate_fmu(target.directory, target.md, kind, name, guid)
         self.messages = self.fmu.messages
         self.in_vr = [v.valueReference for v in target.inputs]
-        # Model Exchange sets a discrete input in Event Mode only (FMI 2.0 section 3.2.3, 3.0 section 3.2)
+        # Model Exchange sets a discrete input in Event Mode only (FMI 2.0 section 3.2.3; FMI 3.0 alike)
         self.discrete = [j for j, v in enumerate(target.inputs) if kind == "ME" and v.variability != "continuous"]
         self.out = [slot(v) for v in target.outputs]
         self._modes = Reader([slot(v) for v in target.modes], self.fmi3)

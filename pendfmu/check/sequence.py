@@ -67,12 +67,13 @@ def run(target: Target, kind: str) -> list[CheckResult]:
 
 
 STANDARD = {
-    "accepted": ("FMI leaves detecting it to the FMU: avoiding the call is the importer's duty, and an error is "
-                 "asked for 'when detecting' it (FMI 3.0 section 2.2.3; FMI 2.0 sections 3.2.3, 4.2.4)"),
+    "accepted": ("FMI leaves detecting it to the FMU: avoiding the call is the importer's duty (FMI 2.0 sections "
+                 "3.2.3, 4.2.4, the calling sequences), and an error is asked for 'when detecting' it (FMI 3.0 "
+                 "section 2.2.3, Status Returned by Functions)"),
     "silent": ("FMI leaves it to the FMU: it 'should' log why, as its logging settings (off here) allow "
-               "(FMI 3.0 section 2.2.3, FMI 2.0 section 2.1.3)"),
+               "(FMI 3.0 section 2.2.3, FMI 2.0 section 2.1.3, Status Returned by Functions)"),
     "non-finite": ("FMI has no rule for a non-finite input: refusing it or carrying it on is the FMU's choice "
-                   "(FMI 2.0 section 2.1.3, FMI 3.0 section 2.2.3)"),
+                   "(FMI 2.0 section 2.1.3, FMI 3.0 section 2.2.3, Status Returned by Functions)"),
 }
 """Why a row is a WARN: what FMI leaves to the FMU, with the section that says so."""
 

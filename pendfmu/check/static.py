@@ -55,9 +55,9 @@ REQUIRED3 = {
                      "GetNumberOfContinuousStates"),
     "CS": COMMON3 + ("InstantiateCoSimulation", "EnterStepMode", "GetOutputDerivatives", "DoStep"),
 }
-"""The functions FMI 3.0 requires for each interface (section 2.5: the common functions and
-all of the interface's, "even if they are only needed for optional capabilities"); of the
-three instantiation functions only the interface's own."""
+"""The functions FMI 3.0 requires for each interface (section 2.5, FMU Distribution: the
+common functions and all of the interface's, present "even if they are only needed for
+optional capabilities"); of the three instantiation functions only the interface's own."""
 
 WRONG_GUID = "{00000000-0000-0000-0000-000000000000}"
 
@@ -106,7 +106,8 @@ def check_exports(target: Target, kind: str) -> CheckResult:
 def check_guid(target: Target, kind: str) -> CheckResult:
     """The binary accepts the GUID (FMI 2.0) or instantiation token (FMI 3.0) of its model
     description, and refuses another: a WARN if it accepts one, as FMI 2.0 section 2.1.5
-    and FMI 3.0 section 2.3.1 say the FMU "can" use it to check the XML, not that it must."""
+    (fmi2Instantiate) and FMI 3.0 (fmi3InstantiateXXX, in the state FMU State Setable) say the
+    FMU "can" use it to check the XML, not that it must."""
     token = "instantiation token" if target.fmi3 else "GUID"
     name = f"static: {token} {kind}"
     instantiate = target_instantiate(target, kind)
