@@ -1,4 +1,4 @@
-"""`pendfmu check`: a battery of checks on any FMI 2.0 FMU (Co-Simulation and Model
+"""`pendfmu check`: a battery of checks on any FMI 2.0 or 3.0 FMU (Co-Simulation and Model
 Exchange): static (model description, exports, GUID, capabilities), call sequence (misuse
 answered with an error, never a crash or NaN), the events a stimulus shows (events.py),
 determinism (fresh instances and reset), state rollback, step-size convergence, finite

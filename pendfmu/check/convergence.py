@@ -73,7 +73,7 @@ def _runs(target: Target, kind: str) -> list[np.ndarray]:
 def verdict(target: Target, kind: str, coarse: np.ndarray, half: np.ndarray, quarter: np.ndarray) -> CheckResult:
     """The row: PASS, FAIL (moves with the step beyond the tolerance) or INCONCLUSIVE."""
     name = f"convergence: h, h/2, h/4 {kind}"
-    h, tolerance = target.step, target.step_rtol
+    tolerance = target.step_rtol
     d1, d2 = _largest(coarse, half), _largest(half, quarter)
     scale = exercise.scales(target, quarter)
     relative = np.maximum(d1, d2) / scale

@@ -114,7 +114,7 @@ def _not_finite(target: Target, kind: str, v, value: float, in_range: bool, bad:
     output = target.outputs[bad.output].name
     values, _ = probe_values(target, v)
     where = (f"in its declared range [{values[0]:g}, {values[-1]:g}]" if in_range
-             else f"probed by decades, no declared range")
+             else "probed by decades, no declared range")
     return CheckResult(name, False, f"{v.name} = {value:g}: {output} = {bad.value}",
                        f"with input {v.name} held at {value:g} ({where}) output {output} turned {bad.value} at "
                        f"t = {bad.step * target.step:.6g} s while every call returned OK")

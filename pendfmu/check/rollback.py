@@ -134,11 +134,11 @@ def _serialized(target: Target, kind: str, unit: Driver, plan: Plan, saved: dict
     after_event = [p for p in plan.around if p - 1 in plan.around]
     k = plan.changed if plan.changed in saved else after_event[0] if after_event else plan.points[len(plan.points) // 2]
     name = f"rollback: serialized state {kind}"
-    data = unit.fmu.serializeFMUstate(saved[k][0][0])
-    copy = unit.fmu.deSerializeFMUstate(data)
-    unit.set_state((copy, *saved[k][0][1:]))
+    data = unit.serialize_state(saved[k][0])
+    copy = unit.deserialize_state(data, saved[k][0])
+    unit.set_state(copy)
     again = unit.run(h, target.stop, excitation(target).at(h))
-    unit.fmu.freeFMUstate(copy)
+    unit.free_state(copy)
     difference = compare(again, reference[k:])
     figure = f"{len(data)} bytes, saved at t = {k * h:.6g} s; max difference {difference:.3g} [{excitation(target).label}]"
     if difference != 0.0:

@@ -1,11 +1,11 @@
-"""Check FMI 2.0 FMUs with a battery of tests and print one row per check.
+"""Check FMI 2.0 and 3.0 FMUs with a battery of tests and print one row per check.
 
-Static: the model description (fmpy's validate_fmu), every fmi2 function FMI 2.0 requires
-exported by the binary, the GUID checked by fmi2Instantiate, the declared capabilities
-working. Dynamic, for Co-Simulation and Model Exchange (whichever the FMU has): misuse
-answered with an error status (run in child processes: a crash is a FAIL), the events the
-stimulus shows, two fresh instances and a reset instance giving identical outputs, FMU state
-rollback (around events too) and serialization reproducing a run bit for bit, step-size
+Static: the model description (fmpy's validate_fmu), every function FMI 2.0 or 3.0 requires
+exported by the binary, the GUID (instantiation token) checked at instantiation, the declared
+capabilities working. Dynamic, for Co-Simulation and Model Exchange (whichever the FMU has):
+misuse answered with an error status (run in child processes: a crash is a FAIL), the events
+the stimulus shows, two fresh instances and a reset instance giving identical outputs, FMU
+state rollback (around events too) and serialization reproducing a run bit for bit, step-size
 convergence (h, h/2, h/4) within --step-rtol or at the --order stated, and finite outputs over
 each input's declared range, else by decades up to --input-limit times its nominal.
 
@@ -26,7 +26,8 @@ inputs are the stimulus) the FMU also runs on the reference's time grid and each
 column is compared inside a tolerance tube: at each time t the result must lie within
 [min, max] of the reference over [t - ttol, t + ttol], widened by atol + rtol * max(|ref|,
 nominal) (nominal: the variable's nominal attribute, else the column's range). Without
---reference, reference results the FMU carries (FMI-LS-REF) are used.
+--reference, reference results the FMU carries (FMI-LS-REF, as the FMI standard's Reference
+FMUs ship them: extra/org.fmi-standard.fmi-ls-ref/<Model>_out.csv) are used.
 """
 
 from __future__ import annotations
@@ -34,11 +35,11 @@ from __future__ import annotations
 import argparse
 import math
 
-HELP = "check FMI 2.0 FMUs: static, call sequence, events, determinism, rollback, step-size convergence, inputs"
+HELP = "check FMI 2.0 and 3.0 FMUs: static, call sequence, events, determinism, rollback, step-size convergence, inputs"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("fmus", nargs="+", metavar="FMU", help="FMI 2.0 FMU files")
+    parser.add_argument("fmus", nargs="+", metavar="FMU", help="FMI 2.0 or 3.0 FMU files")
     parser.add_argument("--stop", type=float, help="length of the runs [s] (default: the default experiment's, "
                                                      "else 1 s)")
     parser.add_argument("--step", type=float, help="communication step h [s] (default: the default experiment's, "
