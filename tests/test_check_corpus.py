@@ -20,7 +20,7 @@ import math
 import numpy as np
 import pytest
 
-from corpus.build import CORPUS, build_all
+from corpus.build import CORPUS, HERE, MUTATIONS, build_all, mutated_source
 from corpus.child import in_child
 from pendfmu.check.fmu import FAIL, INCONCLUSIVE, PASS, CheckResult
 
@@ -120,6 +120,17 @@ def test_the_bouncing_mass_falls_rebounds_and_rests_as_computed(simulated, kind)
     np.testing.assert_allclose(h[rising], v1 * (t[rising] - t1) - g * (t[rising] - t1) ** 2 / 2, atol=tolerance)
     bounces = next(n for n in range(1, 100) if g * t1 * 0.7 ** n < 0.1)
     assert result["bounces"][-1] == bounces == 10 and h[-1] == 0.0
+
+
+@pytest.mark.parametrize("model, variant", list(MUTATIONS), ids=[f"{m}_{v}" for m, v in MUTATIONS])
+def test_a_python_variant_is_its_model_with_the_planted_line_and_its_own_name(model, variant):
+    correct = (HERE / f"{model}.py").read_text().splitlines()
+    name, broken = mutated_source(model, variant)
+    changed = [(a, b) for a, b in zip(correct, broken.splitlines()) if a != b]
+    assert name == f"{model}_{variant}" and len(broken.splitlines()) == len(correct) and len(changed) == 2
+    assert changed[0] == (f"class {model}(Fmi2Slave):", f"class {name}(Fmi2Slave):")
+    planted = changed[1]
+    assert planted[0].endswith(f"# MUTATION {variant}") and planted[1].strip() == MUTATIONS[model, variant]
 
 
 # --- the contract -----------------------------------------------------------------------

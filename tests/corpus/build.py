@@ -112,6 +112,8 @@ def _build_c(model: str, variant: str, out_dir: Path) -> Path:
         raise RuntimeError(f"{model} is built with gcc for linux64")
     headers = Path(fmpy.__file__).resolve().parent / "c-code"
     define = [] if variant == "ok" else [f"-DBREAK_{variant.upper()}"]
+    if define and f"#ifdef BREAK_{variant.upper()}" not in (HERE / f"{model}.c").read_text():
+        raise RuntimeError(f"{model}.c has no '#ifdef BREAK_{variant.upper()}': the variant would be the correct FMU")
     fmu = out_dir / f"{model}_{variant}.fmu"
     with tempfile.TemporaryDirectory(prefix=f"{model}-") as work:
         library = Path(work) / f"{model}.so"
