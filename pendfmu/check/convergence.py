@@ -85,7 +85,7 @@ def verdict(target: Target, kind: str, coarse: np.ndarray, half: np.ndarray, qua
     if relative[j] <= ROUNDING:
         figure += " (rounding: step-independent)"
     elif relative[j] <= tolerance:
-        figure += f" ({relative[j]:.2g} of its {_scale_name(target, j)}, tolerance {tolerance:g})"
+        figure += f" ({relative[j]:.2g} of its {_scale_name(target, j, scale[j])}, tolerance {tolerance:g})"
     if not exercise.moved(quarter).any():
         return CheckResult(name, INCONCLUSIVE, figure + stimulus,
                            unexercised(target, "no output moved (a constant is step-independent)"))
@@ -115,8 +115,10 @@ def _order(d1: float, d2: float, scale: float) -> float:
     return math.log2(d1 / d2)
 
 
-def _scale_name(target: Target, j: int) -> str:
-    return "nominal" if getattr(target.outputs[j], "nominal", None) else "range"
+def _scale_name(target: Target, j: int, scale: float) -> str:
+    """Which scale exercise.scales took for output j: its declared nominal or its range."""
+    nominal = getattr(target.outputs[j], "nominal", None)
+    return "nominal" if nominal and abs(float(nominal)) >= scale else "range"
 
 
 def _moves(target: Target, k: int, d1: float, d2: float, scale: float, expected: float | None) -> str:
@@ -126,7 +128,7 @@ def _moves(target: Target, k: int, d1: float, d2: float, scale: float, expected:
     seen = f"order {order:.2f}" if math.isfinite(order) else "no order (not shrinking)"
     stated = f", below the expected order {expected:g}" if expected is not None else ""
     return (f"the result moves with the communication step: {o} changes by {d1:.3g} from h = {h:g} s to h/2 and by "
-            f"{d2:.3g} from h/2 to h/4 ({max(d1, d2) / scale:.2g} of its {_scale_name(target, k)} {scale:.3g}, "
+            f"{d2:.3g} from h/2 to h/4 ({max(d1, d2) / scale:.2g} of its {_scale_name(target, k, scale)} {scale:.3g}, "
             f"tolerance {target.step_rtol:g}; {seen}{stated}) with the inputs held: usually events (stick/slip, a "
             f"mode switch) decided only at communication points, or a solver whose step is tied to the "
             f"communication step (if it is a fixed-step solver of order p by design, say so: --order p)")

@@ -78,10 +78,13 @@ def observe(target: Target, kind: str, stimulus, h: float, stop: float, paramete
 
 
 def scales(target: Target, rows: np.ndarray) -> np.ndarray:
-    """Each output's scale: its declared nominal, else how far it moved (range), else 1."""
+    """Each output's scale: the larger of its declared nominal and how far it moved (range),
+    else 1. A nominal is a scaling hint and may sit far below what the output does (Roberts
+    declares 1e-4 for a y1 that falls from 1): a difference small against how far the output
+    moved is small, whatever the hint."""
     spread = ranges(rows)
-    nominal = np.array([float(v.nominal) if getattr(v, "nominal", None) else np.nan for v in target.outputs])
-    scale = np.where(np.isfinite(nominal), np.abs(nominal), spread)
+    nominal = np.array([abs(float(v.nominal)) if getattr(v, "nominal", None) else 0.0 for v in target.outputs])
+    scale = np.maximum(nominal, spread)
     return np.where(scale > 0, scale, 1.0)
 
 

@@ -54,7 +54,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--order", type=float, metavar="P", help="the FMU is built around a fixed-step solver of "
                         "order P: results that converge at that order with the communication step pass")
     parser.add_argument("--step-rtol", type=float, metavar="R", help="how far a result may move with the "
-                        "communication step, of its nominal (else its range over the run) (default 1e-4)")
+                        "communication step, of the larger of its nominal and its range over the run (default 1e-4)")
     checks = ("static", "sequence", "events", "determinism", "rollback", "convergence", "inputs", "reference")
     parser.add_argument("--only", nargs="+", choices=checks, metavar="CHECK",
                         help=f"run only these checks: {', '.join(checks)}")
