@@ -10,8 +10,11 @@ edge of that box wants a start the sensor rules out, and the residuals tell why:
   the sensor noise; freed to +-200 encoder steps, one window's angle moved 53 steps from its
   reading and the residuals fell only from 134 to 98 times the noise. A wider box lets the
   start hide more of the model's error; the cause is what the model misses.
-- at the sensor noise: the sensor's description is off (its step, quantizer or noise as
-  the sidecar states them, or its zero).
+- near the sensor noise: the sensor's description may be off (its step, quantizer or noise
+  as the sidecar states them, or its zero), or the model misses a term small enough to
+  hide in the noise (measured: a reference-simulator decay with air drag, read by a 10-bit
+  encoder, fitted without drag: residuals 2.8 times the noise, the start at its edge 5.4 mrad
+  from the truth, the drag taken up by k_fwp).
 
 The flag says which, instead of advising a wider box. Advice for any other parameter at a
 bound gains the same evidence when the residuals are far above the noise.
@@ -95,9 +98,11 @@ def sensor_edge(p: FreeParameter, lower: bool, experiment: Experiment, state: St
                 f"start absorb more): look at what the model misses, in the residuals against time and amplitude "
                 f"(--report): a friction term, the inertia, the sensor's zero or gain "
                 f"({state.column}_offset, {state.column}_scale)")
-    return (f"{head}: the residuals are at the sensor noise, so the sensor is likely described wrong: check the "
-            f"resolution, quantizer and noise the sidecar states for {state.column}, or fit its zero "
-            f"(--free {state.column}_offset)")
+    return (f"{head}: the data pull the start beyond what the sensor allows while the residuals stay near its "
+            f"noise ({spread:.2g} times): either the sensor is described wrong (check the resolution, quantizer and "
+            f"noise the sidecar states for {state.column}, or fit its zero: --free {state.column}_offset), or the "
+            f"model misses a small term that the start absorbs (free the term you suspect, e.g. a friction extra, "
+            f"and compare the fits)")
 
 
 def _set_bound_flag(estimate: Estimate, text: str) -> None:
