@@ -18,6 +18,7 @@ import numpy as np
 
 from pendfmu.errors import FMUError, OptionError
 from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
+from pendfmu.fitting.edges import explain_edges
 from pendfmu.fitting.experiment import Experiment
 from pendfmu.fitting.optimizer import optimize
 from pendfmu.fitting.plausibility import SuspiciousData
@@ -108,6 +109,7 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
         found = _Found(problem, residuals, outcome, assessed)
         found.failures_note()
         found.stiction()
+        found.edges()
         found.statistics()
     finally:
         bar.close()
@@ -183,6 +185,11 @@ class _Found:
         except FMUError as error:  # the result is written regardless
             self.notes.append(f"the stiction's set could not be checked: the simulation at the result fails "
                               f"({error.reason()})")
+
+    def edges(self) -> None:
+        """An estimate at the edge of its box: its flag names the cause, its interval is not a point (edges.py)."""
+        explain_edges(self.problem.free, self.outcome, self.estimates, self.assessed.correlation,
+                      self.problem.experiments, self.spread, MODEL_ERROR_LIMIT)
 
     def statistics(self) -> None:
         free = self.problem.free
