@@ -18,7 +18,9 @@ pulling in the others. Each module defines its narrow classes on these bases::
     |   |                          time, what it logged): the model failed, not pendfmu
     |   +-- CouplingError          an algebraic loop that did not settle (simulator.coupled)
     +-- BuildError (RuntimeError)  exit 5: pendfmu cannot build its FMUs on this machine (no C
-                                   compiler, or the compiler refused the sources)
+    |                              compiler, or the compiler refused the sources)
+    +-- StiffModel (RuntimeError)  a model too stiff for `pendfmu check`'s own Model Exchange
+                                   integrator (check.driver): a limit of the check, not the FMU's
 
 Anything else reaching the command line is an internal failure (exit 1).
 """

@@ -37,7 +37,8 @@ def blocks(readme: Path) -> list[Block]:
     text = readme.read_text()
     found: list[Block] = []
     for match in FENCE.finditer(text):
-        language, code = match.group(2), textwrap.dedent(match.group(3))
+        language = match.group(2)  # output as printed: a table's common indent is part of it
+        code = match.group(3) if language == "output" else textwrap.dedent(match.group(3))
         line = text.count("\n", 0, match.start()) + 1
         if language == "output" and found and found[-1].language in RUNNABLE:
             previous = found.pop()

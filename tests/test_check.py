@@ -42,7 +42,7 @@ def checked_names(results):
 def test_pendfmus_fmus_pass_every_check_in_both_interfaces(name):
     results = run_battery(ensure_fmu(name), stop=STOP)
     assert not failures(results), failures(results)
-    assert checked_names(results) == {"static", "sequence", "determinism", "rollback", "convergence", "inputs"}
+    assert checked_names(results) == {"static", "sequence", "events", "determinism", "rollback", "convergence", "inputs"}
     assert any(r.name.endswith(" ME") for r in results) and any(r.name.endswith(" CS") for r in results)
 
 

@@ -167,26 +167,35 @@ def test_export_stores_the_reference_in_the_fmu_and_check_finds_and_passes_it(ca
     fmu = export_cart(tmp_path, FIG3, cart["reference"])
     assert f"Cart.fmu (with the reference results in {FOLDER}/)" in capsys.readouterr().out
     with zipfile.ZipFile(fmu) as archive:
-        names = set(archive.namelist())
+        names = {name for name in archive.namelist() if name.startswith(FOLDER)}
         manifest = archive.read(MANIFEST)
-    assert {MANIFEST, f"{FOLDER}/experiments.xml", f"{FOLDER}/reference.csv"} <= names
+        stored = archive.read(f"{FOLDER}/Cart_out.csv").decode()
+    # the layout of the FMI standard's Reference FMUs: the manifest and <Model>_out.csv, nothing else
+    assert names == {MANIFEST, f"{FOLDER}/Cart_out.csv"}
+    assert stored == cart["reference"].read_text()
     assert check_manifest(manifest) == []
+    assert b'source="Cart_out.csv" role="result"' in manifest
     assert main(["check", str(fmu), "--only", "reference"]) == 0
     out = capsys.readouterr().out
     assert "PASS  reference: x CS" in out and "PASS  reference: a ME" in out
-    assert f"[reference from the FMU: {FOLDER}/reference.csv]" in out
+    assert f"[reference from the FMU: {FOLDER}/Cart_out.csv]" in out
 
 
 def test_an_fmu_whose_carried_reference_was_made_at_other_parameters_fails(cart, tmp_path, capsys):
+    import zipfile
+
     stimulus, results = split(cart["reference"], tmp_path)
     fmu = export_cart(tmp_path, {**FIG3, "m_c": FIG3["m_c"] * 1.01}, results, stimulus)  # reference at m_c, FMU not
     capsys.readouterr()
     assert main(["check", str(fmu), "--only", "reference"]) == 1
     out = capsys.readouterr().out
     assert "FAIL  reference: x CS" in out and "x leaves the tolerance tube at t = " in out
-    assert "[reference from the FMU: extra/org.fmi-standard.fmi-ls-ref/reference.csv]" in out
-    # the stimulus travelled too: the same FMU at the reference's parameters passes with it
+    assert "[reference from the FMU: extra/org.fmi-standard.fmi-ls-ref/Cart_out.csv]" in out
+    # the stimulus travelled too, as Cart_in.csv beside Cart_out.csv: the same FMU at the
+    # reference's parameters passes with it
     good = export_cart(tmp_path / "good", FIG3, results, stimulus)
+    with zipfile.ZipFile(good) as archive:
+        assert archive.read("extra/org.fmi-standard.fmi-ls-ref/Cart_in.csv").decode() == stimulus.read_text()
     assert main(["check", str(good), "--only", "reference"]) == 0
 
 
@@ -225,7 +234,7 @@ def test_the_manifest_is_valid_by_the_layered_standard_schema_and_the_ls_ref_rul
     assert check_manifest(manifest) == []
     broken = manifest.replace(b'role="result"', b'role="expected"').replace(b"org.fmi-standard.fmi-ls-ref", b"x")
     assert check_manifest(broken) == ["fmi-ls:fmi-ls-name is 'x', must be 'org.fmi-standard.fmi-ls-ref'",
-                                      "Related 'reference.csv': role 'expected' is not one of the standard's"]
+                                      "Related 'Cart_out.csv': role 'expected' is not one of the standard's"]
 
 
 def test_the_stimulus_can_come_from_input_and_export_misuse_is_bad_input(cart, tmp_path, capsys):
@@ -259,6 +268,67 @@ def test_a_broken_manifest_in_the_fmu_is_a_failed_row(cart, tmp_path, capsys):
     assert main(["check", str(broken), "--only", "reference"]) == 1
     out = capsys.readouterr().out
     assert "FAIL  reference: FMI-LS-REF" in out and "role 'expected' is not one of the standard's" in out
+
+
+def test_the_layout_pendfmu_wrote_before_is_still_read(cart, tmp_path, capsys):
+    """pendfmu 0.x stored reference.csv (role result), stimulus.csv (role other) and an
+    experiments.xml pairing them (role experiment/validation): still found and compared,
+    the stimulus with it (the Cart at m_c 1 % heavier fails against it, at m_c passes)."""
+    from pendfmu.export.lsref import FOLDER, MANIFEST, _replace_folder, manifest_xml
+
+    stimulus, results = split(cart["reference"], tmp_path)
+    experiments = (b'<Experiments name="pendfmu export"><Experiment name="reference" startTime="0" stopTime="1.25">'
+                   b'<Stimuli source="stimulus.csv" type="text/csv"/><References source="reference.csv" '
+                   b'type="text/csv"/></Experiment></Experiments>')
+    old = {MANIFEST: manifest_xml([("experiments.xml", "experiment/validation", "application/xml", "the experiment"),
+                                   ("reference.csv", "result", "text/csv", "reference results"),
+                                   ("stimulus.csv", "other", "text/csv", "stimulus")]),
+           f"{FOLDER}/experiments.xml": experiments, f"{FOLDER}/reference.csv": results.read_bytes(),
+           f"{FOLDER}/stimulus.csv": stimulus.read_bytes()}
+    for params, expected in ((FIG3, 0), ({**FIG3, "m_c": FIG3["m_c"] * 1.01}, 1)):
+        fmu = export_cart(tmp_path / str(expected), params, results)
+        _replace_folder(fmu, old)
+        capsys.readouterr()
+        assert main(["check", str(fmu), "--only", "reference"]) == expected
+        out = capsys.readouterr().out
+        assert f"[reference from the FMU: {FOLDER}/reference.csv]" in out
+        assert ("FAIL  reference: x CS" in out) == bool(expected) and "note" not in out
+
+
+def test_a_carried_reference_is_read_as_far_as_it_fits_and_the_rest_is_a_warning(cart, tmp_path, capsys):
+    """A carried reference is the FMU's own: a manifest without the schema's description
+    (as the Reference FMUs ship it), a file it names that the FMU lacks, a column that names
+    no variable and one that is not a number are notes (a WARN row); the columns that fit
+    are compared, a Boolean column of true/false among them."""
+    from pendfmu.export.lsref import FOLDER, MANIFEST, _replace_folder
+
+    from pendfmu.check.fmu import Target
+    from pendfmu.check.reference import read_reference_csv, run_on_grid
+
+    stimulus, results = split(cart["reference"], tmp_path)
+    grid = read_reference_csv(cart["reference"], Target(cart["fmu"]))
+    grid.outputs = {"stuck": grid.outputs["x"]}
+    stuck = run_on_grid(Target(cart["fmu"]), "CS", grid)["stuck"]  # the FMU's own, written as true/false
+    assert 0 < stuck.sum() < len(stuck)
+    lines = results.read_text().splitlines()
+    extended = [lines[0] + ",q,stuck"] + [f"{line},abc,{'true' if s else 'false'}" for line, s in zip(lines[1:], stuck)]
+    manifest = (b'<?xml version="1.0" encoding="UTF-8"?>\n<fmiReferences '
+                b'xmlns:fmi-ls="http://fmi-standard.org/fmi-ls-manifest" fmi-ls:fmi-ls-name="org.fmi-standard.fmi-ls-ref" '
+                b'fmi-ls:fmi-ls-version="1.0.0-alpha.1">\n'
+                b'<Related type="text/csv" source="Cart_out.csv" role="result" description="Output"/>\n'
+                b'<Related type="text/csv" source="Gone_out.csv" role="result" description="Output"/>\n'
+                b'</fmiReferences>\n')
+    fmu = export_cart(tmp_path, FIG3, results)
+    _replace_folder(fmu, {MANIFEST: manifest, f"{FOLDER}/Cart_out.csv": "\n".join(extended).encode(),
+                          f"{FOLDER}/Cart_in.csv": stimulus.read_bytes()})
+    capsys.readouterr()
+    assert main(["check", str(fmu), "--only", "reference"]) == 0
+    out = capsys.readouterr().out
+    assert "WARN  reference: FMI-LS-REF" in out and "3 notes" in out
+    assert "no fmi-ls:fmi-ls-description attribute" in out
+    assert "names 'Gone_out.csv' (result), which the FMU does not contain" in out
+    assert "column q: not variables of Cart.fmu, not compared" in out
+    assert "PASS  reference: stuck CS" in out and "PASS  reference: x ME" in out
 
 
 def test_a_users_fmu_exported_with_fmu_carries_the_reference_and_is_checked_as_described(tmp_path, capsys):

@@ -40,9 +40,9 @@ def setup(tmp_path_factory):
     rig = root / "rig"
     experiments = [
         Trial("current-steps", "current", 0.008, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0), (5e-3, -1.0))),
-        Trial("cart-startup", "cart", 0.4, 2e-4, ("I_c", "I", "x"), steps((0, 0.0), (0.02, 3.0), (0.2, 0.0)),
+        Trial("cart-startup", "cart", 0.4, 2e-4, ("I_c", "I", "x", "v"), steps((0, 0.0), (0.02, 3.0), (0.2, 0.0)),
                    sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v")),
-        Trial("pendulum-decay", "pendulum", 1.2, 2e-4, ("a", "phi"), lambda t: 0.0,
+        Trial("pendulum-decay", "pendulum", 1.2, 2e-4, ("a", "phi", "w"), lambda t: 0.0,
                    truth_overrides={"phi0": math.pi + 0.4, "w0": 0.0}, known_initial=("w",)),
     ]
     write_experiments(rig, {}, seed=3, experiments=experiments)
@@ -143,8 +143,12 @@ CASES = {
         "system": (["--drive", "I_c"], lambda p: all(r["drives"] == {"I_c": ["I_c", "hold"]}
                                                      for r in recordings_of(p))),
     },
-    "match": {
-        **dict.fromkeys(("current", "cart", "pendulum", "all")),
+    "match": {  # a stage compares its recorded rate as well (the current stage has none; `all` refuses)
+        "current": None,
+        "cart": (["--match", "v"], lambda p: all(r["match"] == {"x": "x", "v": "v"} for r in recordings_of(p))),
+        "pendulum": (["--match", "w"], lambda p: all(r["match"] == {"phi": "phi", "w": "w"}
+                                                     for r in recordings_of(p))),
+        "all": None,
         "fmu": (["--match", "x"], lambda p: all(r["match"] == {"x": "x"} for r in recordings_of(p))),
         "system": (["--match", "x"], lambda p: all(r["match"] == {"x": "x"} for r in recordings_of(p))),
     },

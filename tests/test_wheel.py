@@ -106,3 +106,13 @@ def test_build_out_writes_the_fmus_where_asked(installed, tmp_path):
     _run([str(installed / "pendfmu"), "build", "--out", str(out)], cwd=tmp_path, env=env)
     assert sorted(p.name for p in out.glob("*.fmu")) == sorted(f"{n}.fmu" for n in ALL_COMPONENTS)
     assert not (tmp_path / "cache" / "pendfmu").exists()
+
+
+def test_the_recording_format_ships_with_the_package(installed, tmp_path):
+    """A user who pip-installed pendfmu has the recording format: `pendfmu format` prints the
+    installed copy of FORMAT.md, the checkout's text."""
+    env = _clean_env(tmp_path / "cache")
+    where = Path(_run([str(installed / "pendfmu"), "format", "--path"], cwd=tmp_path, env=env).stdout.strip())
+    assert where.is_relative_to(installed.parent) and where.is_file()
+    printed = _run([str(installed / "pendfmu"), "format"], cwd=tmp_path, env=env).stdout
+    assert printed == (ROOT / "pendfmu" / "recording" / "FORMAT.md").read_text(encoding="utf-8")

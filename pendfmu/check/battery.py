@@ -9,28 +9,36 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pendfmu.check import convergence, determinism, inputs, rollback, sequence, static
+from pendfmu.check import convergence, determinism, events, inputs, rollback, sequence, static
 from pendfmu.check import reference as reference_mod
-from pendfmu.check.fmu import FAIL, INCONCLUSIVE, PASS, VERDICTS, WARN, CheckResult, Target
+from pendfmu.check.fmu import (DEFAULT_INPUT_LIMIT, DEFAULT_STEP_RTOL, FAIL, INCONCLUSIVE, PASS, VERDICTS, WARN,
+                               CheckResult, Target)
 from pendfmu.check.reference import DEFAULT_ATOL, DEFAULT_RTOL
 from pendfmu.console import progress
 from pendfmu.errors import EXIT_SUSPICIOUS as EXIT_INCONCLUSIVE
 from pendfmu.errors import BadInput
 
-DYNAMIC = (sequence, determinism, rollback, convergence, inputs)
+DYNAMIC = (sequence, events, determinism, rollback, convergence, inputs)
 
 
 def run_battery(path: str | Path, stop: float | None = None, step: float | None = None,
                 only: tuple[str, ...] | None = None, recording: str | Path | None = None,
                 reference: str | Path | None = None, atol: float = DEFAULT_ATOL, rtol: float = DEFAULT_RTOL,
-                ttol: float | None = None, plot_dir: str | Path | None = None) -> list[CheckResult]:
+                ttol: float | None = None, plot_dir: str | Path | None = None,
+                input_limit: float = DEFAULT_INPUT_LIMIT, order: float | None = None,
+                step_rtol: float = DEFAULT_STEP_RTOL) -> list[CheckResult]:
     """Every check on the FMU at `path`; `only` picks checks by module name ("static",
-    "sequence", "determinism", "rollback", "convergence", "inputs", "reference");
-    `recording` a CSV of inputs (time first) that drives the runs instead of the default
-    sine. `reference` a CSV of reference results compared inside a tolerance tube (atol,
-    rtol, ttol; pendfmu/check/reference.py), else the reference results the FMU carries
-    (FMI-LS-REF), if any; `plot_dir` gets a PNG per failing variable."""
+    "sequence", "events", "determinism", "rollback", "convergence", "inputs", "reference");
+    `recording` a CSV (time first; a whole recording: columns that are not inputs are
+    ignored) that drives the runs instead of the stimulus the search finds (stimulus.py:
+    inputs without a declared range up to `input_limit` times their nominal). `order`: the
+    order of the fixed-step solver the FMU is built around, `step_rtol`: how far a result may
+    move with the communication step (convergence.py). `reference` a CSV of reference results
+    compared inside a tolerance tube (atol, rtol, ttol; pendfmu/check/reference.py), else the
+    reference results the FMU carries (FMI-LS-REF), if any; `plot_dir` gets a PNG per failing
+    variable."""
     target = Target(path, stop, step, recording)
+    target.input_limit, target.stated_order, target.step_rtol = input_limit, order, step_rtol
     known = reference_mod.read_reference_csv(reference, target) if reference is not None else None
     results: list[CheckResult] = []
     if only is None or "static" in only:

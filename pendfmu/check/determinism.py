@@ -7,14 +7,24 @@ a parameter p changed before the reset that means p is back at its start value, 
 parameter set to a after the reset must act like a fresh instance with p = a (the recurring
 bug is an FMU that keeps using the value from before the reset). An FMU that refuses
 fmi2Reset with an error status passes: it says it cannot, and a host instantiates anew.
+
+Exercise (exercise.py): identical runs of outputs that never moved say nothing, and a kept
+parameter shows only if the parameter changes the outputs; the reset check tries up to
+MAX_PARAMETERS parameters for one that does. Either missing makes the row INCONCLUSIVE.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from pendfmu.check.fmu import CheckResult, Driver, Target, call_error, compare, first_difference
+from pendfmu.check import exercise
+from pendfmu.check.fmu import (INCONCLUSIVE, CheckResult, Driver, Target, call_error, compare, first_difference,
+                               varied_value)
+from pendfmu.check.stimulus import excitation, reference_run, unexercised
 from pendfmu.errors import FMUError
+
+MAX_PARAMETERS = 4
+"""Parameters the reset check tries for one that changes the outputs (a fresh run each)."""
 
 
 def fresh_run(target: Target, kind: str, parameters=None) -> np.ndarray:
@@ -26,7 +36,7 @@ def fresh_run(target: Target, kind: str, parameters=None) -> np.ndarray:
 
 
 def _run(target: Target, unit: Driver, parameters=None) -> np.ndarray:
-    stimulus = target.stimulus(target.step)
+    stimulus = excitation(target).at(target.step)
     unit.initialize(parameters, stimulus(0.0))
     return unit.run(target.step, target.stop, stimulus)
 
@@ -36,71 +46,107 @@ def times(target: Target, rows: int) -> np.ndarray:
 
 
 def run(target: Target, kind: str) -> list[CheckResult]:
-    results = []
     name = f"determinism: fresh instances {kind}"
-    try:
-        first, second = fresh_run(target, kind), fresh_run(target, kind)
+    try:  # the first fresh instance's run is the one every check starts from (exercise.py)
+        first = reference_run(target, kind).rows
+        second = fresh_run(target, kind)
     except Exception as error:
         return [CheckResult(name, False, "run failed", call_error(error))]
+    return [fresh_instances(target, kind, first, second), reset(target, kind, first)]
+
+
+def fresh_instances(target: Target, kind: str, first: np.ndarray, second: np.ndarray) -> CheckResult:
+    """The row for two fresh instances' runs."""
+    name = f"determinism: fresh instances {kind}"
     difference = compare(first, second)
-    if difference == 0.0:
-        results.append(CheckResult(name, True, f"identical ({first.shape[0]} points x {first.shape[1]} outputs)"))
-    else:
-        results.append(CheckResult(name, False, f"max difference {difference:.3g}",
-                                   "two fresh instances with the same inputs differ: "
-                                   + first_difference(target, first, second, times(target, len(first)))))
+    stimulus = f" [{excitation(target).label}]"
+    if difference != 0.0:
+        return CheckResult(name, False, f"max difference {difference:.3g}" + stimulus,
+                           "two fresh instances with the same inputs differ: "
+                           + first_difference(target, first, second, times(target, len(first))))
+    figure = f"identical ({first.shape[0]} points x {first.shape[1]} outputs); " + exercise.movement(target, first)
+    if not exercise.moved(first).any():
+        return CheckResult(name, INCONCLUSIVE, figure + stimulus, unexercised(target, "no output moved"))
+    return CheckResult(name, True, figure + stimulus)
+
+
+def reset(target: Target, kind: str, first: np.ndarray) -> CheckResult:
+    """The row for fmi2Reset: back to the start values, and a parameter set after it used."""
     name = f"determinism: reset {kind}"
-    varied = target.varied_parameter()
     try:  # before the instance under test exists (an FMU may allow one instance at a time)
-        fresh = fresh_run(target, kind, {varied[0].name: varied[1]}) if varied else None
+        varied, fresh, effect, tried = _influential(target, kind, first)
     except Exception as error:
-        results.append(CheckResult(name, False, "run failed", call_error(error)))
-        return results
+        return CheckResult(name, False, "run failed", call_error(error))
     unit = Driver(target, kind)
     try:
-        # the instance's first run with p = b (not a: an FMU that derives values from p once
-        # would otherwise look right by chance), then reset: back to the start values
-        b = _other_value(varied) if varied else None
-        _run(target, unit, {varied[0].name: b} if varied else {})
-        try:
-            unit.reset()
-        except FMUError as error:
-            results.append(CheckResult(name, True, "fmi2Reset refused",
-                                       call_error(error) + "; a host must instantiate anew"))
-            return results
-        after = _run(target, unit)
-        problems = []
-        difference = compare(after, first)
-        if difference != 0.0:
-            what = f" (after running with {varied[0].name} = {b:g})" if varied else ""
-            problems.append(f"a run after fmi2Reset{what} differs from a fresh instance's: "
-                            + first_difference(target, after, first, times(target, len(first)))
-                            + (f"; fmi2Reset must bring {varied[0].name} back to its start value "
-                               f"{float(varied[0].start):g}" if varied else ""))
-        figure = f"max difference {difference:.3g}"
-        if varied:
-            p, a = varied
-            # reset again, set p = a: must act like a fresh instance with p = a
-            unit.reset()
-            after_set = _run(target, unit, {p.name: a})
-            moved = compare(fresh, first)
-            difference = compare(after_set, fresh)
-            figure += f"; {p.name} = {a:g} set after reset: {difference:.3g}"
-            if difference != 0.0:
-                problems.append(f"{p.name} set to {a:g} after fmi2Reset does not act like a fresh instance with "
-                                f"{p.name} = {a:g} (the FMU keeps using an old value): "
-                                + first_difference(target, after_set, fresh, times(target, len(fresh))))
-            elif moved == 0.0:
-                figure += f" ({p.name} does not change the outputs)"
-        if problems:
-            results.append(CheckResult(name, False, figure, "; ".join(problems)))
-        else:
-            results.append(CheckResult(name, True, figure))
+        return _reset_row(target, unit, name, first, varied, fresh, effect, tried)
     except Exception as error:
-        results.append(CheckResult(name, False, "run failed", call_error(error)))
+        return CheckResult(name, False, "run failed", call_error(error))
     finally:
         unit.free()
-    return results
+
+
+def _influential(target: Target, kind: str, first: np.ndarray):
+    """(parameter and value, its fresh run, how far it moved the outputs, names tried): the
+    first of up to MAX_PARAMETERS parameters whose value changes the outputs, else the first."""
+    chosen = target.varied_parameter()
+    if chosen is None:
+        return None, None, 0.0, []
+    others = [(v, varied_value(v)) for v in target.parameters if v is not chosen[0]]
+    candidates = [chosen] + [(v, value) for v, value in others if value is not None][:MAX_PARAMETERS - 1]
+    found, tried = None, []
+    for v, value in candidates:
+        fresh = fresh_run(target, kind, {v.name: value})
+        effect = compare(fresh, first)
+        tried.append(f"{v.name} = {value:g}")
+        if found is None:
+            found = ((v, value), fresh, effect)
+        if effect > 0:
+            return (v, value), fresh, effect, tried
+    return (*found, tried)
+
+
+def _reset_row(target, unit, name, first, varied, fresh, effect, tried) -> CheckResult:
+    # the instance's first run with p = b (not a: an FMU that derives values from p once
+    # would otherwise look right by chance), then reset: back to the start values
+    stimulus = f" [{excitation(target).label}]"
+    b = _other_value(varied) if varied else None
+    _run(target, unit, {varied[0].name: b} if varied else {})
+    try:
+        unit.reset()
+    except FMUError as error:
+        return CheckResult(name, True, "fmi2Reset refused", call_error(error) + "; a host must instantiate anew")
+    after = _run(target, unit)
+    problems = []
+    difference = compare(after, first)
+    if difference != 0.0:
+        what = f" (after running with {varied[0].name} = {b:g})" if varied else ""
+        problems.append(f"a run after fmi2Reset{what} differs from a fresh instance's: "
+                        + first_difference(target, after, first, times(target, len(first)))
+                        + (f"; fmi2Reset must bring {varied[0].name} back to its start value "
+                           f"{float(varied[0].start):g}" if varied else ""))
+    figure = f"max difference {difference:.3g}"
+    if varied:
+        p, a = varied
+        unit.reset()  # reset again, set p = a: must act like a fresh instance with p = a
+        after_set = _run(target, unit, {p.name: a})
+        difference = compare(after_set, fresh)
+        figure += f"; {p.name} = {a:g} set after reset: {difference:.3g}"
+        if difference != 0.0:
+            problems.append(f"{p.name} set to {a:g} after fmi2Reset does not act like a fresh instance with "
+                            f"{p.name} = {a:g} (the FMU keeps using an old value): "
+                            + first_difference(target, after_set, fresh, times(target, len(fresh))))
+        else:
+            figure += f" ({p.name} moves the outputs by {effect:.3g})" if effect > 0 else ""
+    if problems:
+        return CheckResult(name, False, figure + stimulus, "; ".join(problems))
+    if not exercise.moved(first).any():
+        return CheckResult(name, INCONCLUSIVE, figure + stimulus, unexercised(target, "no output moved"))
+    if varied and effect == 0:
+        return CheckResult(name, INCONCLUSIVE, figure + " (no parameter tried changes the outputs)" + stimulus,
+                           unexercised(target, f"none of {', '.join(tried)} changes the outputs (a value kept "
+                                               f"across fmi2Reset would not show)") + ", or choose another parameter")
+    return CheckResult(name, True, figure + stimulus)
 
 
 def _other_value(varied) -> float:

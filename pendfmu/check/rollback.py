@@ -1,16 +1,42 @@
-"""State rollback: an FMU state saved during a run (several points, among them the first
-instant of each combination of discrete modes, Integer and Boolean variables, that the run
-visits, e.g. a cart sliding forwards, stuck, sliding backwards), restored after the run went on past further
-events, must reproduce the rest of the run bit for bit with the same inputs; so must a state
-serialized to bytes and deserialized."""
+"""State rollback: an FMU state saved during a run, restored after the run went on past
+further events, must reproduce the rest of the run bit for bit with the same inputs; so must
+a state serialized to bytes and deserialized.
+
+States are saved at a quarter, half and three quarters of the run, at the first instant of
+each combination of discrete modes (Integer and Boolean variables) the run visits (a cart
+sliding forwards, stuck, sliding backwards), and just before and just after the first events
+seen from outside (exercise.py: mode changes, Model Exchange event iterations, sign changes,
+kinks and jumps of the outputs), so that an FMU without mode variables is rolled back over
+its events too. A state saved at a quarter mark or a first mode instant is rerun to the end,
+one around an event for EVENT_WINDOW of the run. A row whose outputs never moved after any
+save exercised nothing: INCONCLUSIVE.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from pendfmu.check.fmu import CheckResult, Driver, Target, call_error, compare, first_difference
+from pendfmu.check import exercise
+from pendfmu.check.fmu import INCONCLUSIVE, CheckResult, Driver, Target, call_error, compare, first_difference
+from pendfmu.check.stimulus import excitation, reference_run, unexercised
 
 MAX_MODE_SAVES = 8  # states saved at the first instants of this many mode combinations at most
+MAX_EVENT_SAVES = 8  # states saved around events at most (two per event: before and after)
+EVENT_WINDOW = 0.05  # a state saved around an event is rerun for this fraction of the run (20 steps at least)
+
+
+@dataclass
+class Plan:
+    """Where states are saved: every point, the ones rerun to the end, the first instant of
+    the first mode change (or None), how many mode combinations and events are covered."""
+    points: list[int]
+    to_end: set[int]
+    changed: int | None
+    combinations: int
+    around: list[int]
+    events: exercise.Events
 
 
 def run(target: Target, kind: str) -> list[CheckResult]:
@@ -18,73 +44,110 @@ def run(target: Target, kind: str) -> list[CheckResult]:
     interface = target.interface(kind)
     if not interface.canGetAndSetFMUstate:
         return [CheckResult(name, True, "not declared", "canGetAndSetFMUstate is false: nothing to roll back")]
-    h, stimulus = target.step, target.stimulus(target.step)
-    n = int(round(target.stop / h))
+    try:
+        plan = _plan(target, kind)
+    except Exception as error:
+        return [CheckResult(name, False, "call failed", call_error(error))]
     unit = Driver(target, kind)
     try:
-        unit.initialize(None, stimulus(0.0))
-        # a first run to find where the modes change
-        modes: list = []
-        start = unit.modes()
-        unit.run(h, target.stop, stimulus, record_modes=modes)
-        unit.reset()
-        unit.initialize(None, stimulus(0.0))
-        points = {n // 4, n // 2, 3 * n // 4}
-        # the first instant of each combination of modes the run visits (sliding either way,
-        # stuck, saturated...), so that a state saved in every one of them is restored
-        first_in: dict[str, int] = {}
-        for k, (_, m) in enumerate(modes):
-            if m != start:
-                first_in.setdefault(repr(m), k + 1)
-        changed = min(first_in.values(), default=None)
-        points.update(k for k in list(first_in.values())[:MAX_MODE_SAVES] if k < n)
-        points = sorted(p for p in points if 0 < p < n)
-        saved, rows = {}, [unit.outputs()]
-        for k in range(n):
-            if k in points:
-                saved[k] = (unit.get_state(), unit.modes())
-            unit.step(h, stimulus(k * h))
-            unit.time = (k + 1) * h
-            rows.append(unit.outputs())
-        reference = np.array(rows)
-        worst, problems = 0.0, []
-        for k in reversed(points):
-            state, mode = saved[k]
-            unit.set_state(state)
-            again = unit.run(h, target.stop, lambda t: stimulus(t))
-            difference = compare(again, reference[k:])
-            worst = max(worst, difference)
-            if difference != 0.0:
-                where = first_difference(target, again, reference[k:], np.arange(k, n + 1) * h)
-                said = f" (modes {_modes(target, mode)} at the save)" if mode else ""
-                problems.append(f"restoring the state saved at t = {k * h:.6g} s{said} does not reproduce the run: "
-                                f"{where}")
-        visited = sum(1 for k in first_in.values() if k in saved)
-        figure = f"{len(points)} saves" + (f", in {visited} mode combinations besides the start's, the first "
-                                            f"{_modes(target, saved[changed][1])}"
-                                            if changed in saved else ", no mode change seen")
-        results = [CheckResult(name, not problems, figure + f"; max difference {worst:.3g}", "; ".join(problems[:2]))]
-        if interface.canSerializeFMUstate:
-            k = changed if changed in saved else points[len(points) // 2]
-            name_s = f"rollback: serialized state {kind}"
-            data = unit.fmu.serializeFMUstate(saved[k][0][0])
-            copy = unit.fmu.deSerializeFMUstate(data)
-            unit.set_state((copy, *saved[k][0][1:]))
-            again = unit.run(h, target.stop, stimulus)
-            difference = compare(again, reference[k:])
-            message = "" if difference == 0.0 else (
-                f"a state serialized at t = {k * h:.6g} s ({len(data)} bytes) and deserialized does not reproduce "
-                f"the run: " + first_difference(target, again, reference[k:], np.arange(k, n + 1) * h))
-            results.append(CheckResult(name_s, difference == 0.0, f"{len(data)} bytes; max difference {difference:.3g}",
-                                       message))
-            unit.fmu.freeFMUstate(copy)
-        for state, _ in saved.values():
-            unit.free_state(state)
-        return results
+        return _rollback(target, kind, unit, plan, interface.canSerializeFMUstate)
     except Exception as error:
         return [CheckResult(name, False, "call failed", call_error(error))]
     finally:
         unit.free()
+
+
+def _plan(target: Target, kind: str) -> Plan:
+    """The save points, from the reference run's modes and events."""
+    n = int(round(target.stop / target.step))
+    seen = reference_run(target, kind)
+    found = exercise.events(target, seen)
+    first_in: dict[str, int] = {}
+    for k, modes in enumerate(seen.modes):
+        if modes != seen.modes[0]:
+            first_in.setdefault(repr(modes), k)
+    firsts = [k for k in list(first_in.values())[:MAX_MODE_SAVES] if 0 < k < n]
+    around = sorted({p for e in found.points[:MAX_EVENT_SAVES // 2] for p in (e - 1, e) if 0 < p < n})
+    to_end = {p for p in (n // 4, n // 2, 3 * n // 4, *firsts) if 0 < p < n}
+    changed = min(first_in.values(), default=None)
+    visited = sum(1 for k in first_in.values() if 0 < k < n)
+    return Plan(sorted(to_end | set(around)), to_end, changed, visited, around, found)
+
+
+def _rollback(target: Target, kind: str, unit: Driver, plan: Plan, serialize: bool) -> list[CheckResult]:
+    h, stimulus = target.step, excitation(target).at(target.step)
+    n = int(round(target.stop / h))
+    unit.initialize(None, stimulus(0.0))
+    saved, rows = {}, [unit.outputs()]
+    for k in range(n):
+        if k in plan.points:
+            saved[k] = (unit.get_state(), unit.modes())
+        unit.step(h, stimulus(k * h))
+        unit.time = (k + 1) * h
+        rows.append(unit.outputs())
+    reference = np.array(rows)
+    window = max(20, int(EVENT_WINDOW * n))
+    worst, problems, exercised = 0.0, [], 0
+    for k in reversed(plan.points):
+        end = n if k in plan.to_end else min(n, k + window)
+        state, mode = saved[k]
+        unit.set_state(state)
+        again = unit.run(h, end * h, stimulus)
+        difference = compare(again, reference[k:end + 1])
+        worst = max(worst, difference)
+        exercised += bool(exercise.moved(reference[k:end + 1]).any())
+        if difference != 0.0:
+            where = first_difference(target, again, reference[k:end + 1], np.arange(k, end + 1) * h)
+            said = f" (modes {_modes(target, mode)} at the save)" if mode else ""
+            problems.append(f"restoring the state saved at t = {k * h:.6g} s{said} does not reproduce the run: "
+                            f"{where}")
+    results = [_row(target, kind, plan, saved, worst, problems, exercised)]
+    if serialize:
+        results.append(_serialized(target, kind, unit, plan, saved, reference))
+    for state, _ in saved.values():
+        unit.free_state(state)
+    return results
+
+
+def _row(target: Target, kind: str, plan: Plan, saved: dict, worst: float, problems: list[str],
+         exercised: int) -> CheckResult:
+    name = f"rollback: FMU state {kind}"
+    h = target.step
+    figure = f"{len(plan.points)} saves"
+    if plan.around:
+        figure += f", {len(plan.around)} around {plan.events.describe(h)}"
+    figure += (f", in {plan.combinations} mode combinations besides the start's, the first "
+               f"{_modes(target, saved[plan.changed][1])}" if plan.changed in saved else ", no mode change seen")
+    figure += f"; max difference {worst:.3g} [{excitation(target).label}]"
+    if problems:
+        return CheckResult(name, False, figure, "; ".join(problems[:2]))
+    if not exercised:
+        return CheckResult(name, INCONCLUSIVE, figure, unexercised(target, "no output moved after any save (a state "
+                                                                       "that restores nothing would pass too)"))
+    return CheckResult(name, True, figure)
+
+
+def _serialized(target: Target, kind: str, unit: Driver, plan: Plan, saved: dict, reference: np.ndarray):
+    """A state (at the first mode change, else after the first event, else mid-run)
+    serialized, deserialized, restored and rerun to the end."""
+    h, n = target.step, len(reference) - 1
+    after_event = [p for p in plan.around if p - 1 in plan.around]
+    k = plan.changed if plan.changed in saved else after_event[0] if after_event else plan.points[len(plan.points) // 2]
+    name = f"rollback: serialized state {kind}"
+    data = unit.serialize_state(saved[k][0])
+    copy = unit.deserialize_state(data, saved[k][0])
+    unit.set_state(copy)
+    again = unit.run(h, target.stop, excitation(target).at(h))
+    unit.free_state(copy)
+    difference = compare(again, reference[k:])
+    figure = f"{len(data)} bytes, saved at t = {k * h:.6g} s; max difference {difference:.3g} [{excitation(target).label}]"
+    if difference != 0.0:
+        return CheckResult(name, False, figure, f"a state serialized at t = {k * h:.6g} s ({len(data)} bytes) and "
+                           f"deserialized does not reproduce the run: "
+                           + first_difference(target, again, reference[k:], np.arange(k, n + 1) * h))
+    if not exercise.moved(reference[k:]).any():
+        return CheckResult(name, INCONCLUSIVE, figure, unexercised(target, "no output moved after the save"))
+    return CheckResult(name, True, figure)
 
 
 def _modes(target: Target, values: tuple) -> str:

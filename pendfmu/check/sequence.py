@@ -1,12 +1,15 @@
-"""Call sequence: misuse must be answered with an error status and a log message, never a
-crash, and never an OK that leaves NaN in the outputs.
+"""Call sequence: misuse answered with an error status and a log message, never a crash.
 
-The misuses, each on a fresh instance: a step before initialization (Co-Simulation: fmi2DoStep;
-Model Exchange: fmi2EnterContinuousTimeMode outside event mode), an unknown value reference,
-a non-finite input (NaN, then +Inf) followed by a step, and a fixed parameter set while
-stepping. They run in a child process (`python -m pendfmu.check.sequence FMU KIND`) that
+The misuses, each on a fresh instance: a step before initialization (Co-Simulation: fmi2DoStep
+or fmi3DoStep; Model Exchange: EnterContinuousTimeMode outside event mode), an unknown value
+reference, a non-finite input (NaN, then +Inf) followed by a step, and a fixed parameter set
+while stepping. They run in a child process (`python -m pendfmu.check.sequence FMU KIND`) that
 prints one JSON line per misuse; a child that dies (a segfault) reports the misuse it was
-on as "crashed", and a new child goes on with the rest.
+on as "crashed" (FAIL), and a new child goes on with the rest.
+
+FMI makes avoiding a misuse the importer's duty and leaves detecting it, and what to do with
+a non-finite input, to the FMU: a misuse accepted, an error without a message, or a NaN
+carried on to the outputs is a WARN with the section that says so (STANDARD), not a FAIL.
 """
 
 from __future__ import annotations
@@ -18,7 +21,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from pendfmu.check.fmu import CheckResult, Target
+from pendfmu.check.fmu import INCONCLUSIVE, WARN, CheckResult, Target
+from pendfmu.check.variables import FLOAT, accessor, is_array
 
 CASES = ("step before initialization", "unknown value reference", "NaN input", "Inf input",
          "fixed parameter set while stepping")
@@ -53,7 +57,7 @@ def run(target: Target, kind: str) -> list[CheckResult]:
         name = f"sequence: {case} {kind}"
         report = reports.get(case)
         if report is None:
-            results.append(CheckResult(name, False, "no answer", "the child process reported nothing"))
+            results.append(CheckResult(name, INCONCLUSIVE, "no answer", "the check's child process reported nothing"))
         elif "crashed" in report:
             results.append(CheckResult(name, False, "crashed", f"the FMU crashed the process ({report['crashed']}) "
                                        f"on the misuse '{case}': {report['stderr'][0]}"))
@@ -62,26 +66,46 @@ def run(target: Target, kind: str) -> list[CheckResult]:
     return results
 
 
+STANDARD = {
+    "accepted": ("FMI leaves detecting it to the FMU: avoiding the call is the importer's duty (FMI 2.0 sections "
+                 "3.2.3, 4.2.4, the calling sequences), and an error is asked for 'when detecting' it (FMI 3.0 "
+                 "section 2.2.3, Status Returned by Functions)"),
+    "silent": ("FMI leaves it to the FMU: it 'should' log why, as its logging settings (off here) allow "
+               "(FMI 3.0 section 2.2.3, FMI 2.0 section 2.1.3, Status Returned by Functions)"),
+    "non-finite": ("FMI has no rule for a non-finite input: refusing it or carrying it on is the FMU's choice "
+                   "(FMI 2.0 section 2.1.3, FMI 3.0 section 2.2.3, Status Returned by Functions)"),
+}
+"""Why a row is a WARN: what FMI leaves to the FMU, with the section that says so."""
+
+
 def _judge(name: str, case: str, report: dict) -> CheckResult:
+    """PASS: the misuse answered with an error status and a message, or a non-finite input
+    kept away from the outputs; WARN: what FMI leaves to the FMU (STANDARD); INCONCLUSIVE:
+    the misuse does not apply or could not be set up (the check's trouble, not the FMU's)."""
     if report.get("skip"):
-        return CheckResult(name, True, "not applicable", report["skip"])
+        return CheckResult(name, INCONCLUSIVE, "not applicable", report["skip"])
     status, logged, what = report["status"], report["logged"], report["call"]
-    if status < 0:  # the child could not set the misuse up: the checker's trouble, said as such
-        return CheckResult(name, False, "not run", f"the misuse could not be set up: {logged[0] if logged else '?'}")
+    if status < 0:
+        return CheckResult(name, INCONCLUSIVE, "not run",
+                           f"the check could not set the misuse up: {logged[0] if logged else '?'}")
     said = f"; it logged: {logged[0]}" if logged else ""
     if status >= ERROR:
         if not logged:
-            return CheckResult(name, False, f"{what} status {status}, nothing logged",
-                               f"{what} answered a {case} with status {status} but logged no message saying why")
+            return CheckResult(name, WARN, f"{what} status {status}, nothing logged",
+                               f"{what} answered a {case} with status {status} but logged no message saying why: "
+                               f"{STANDARD['silent']}")
         return CheckResult(name, True, f"{what} status {status}, logged", logged[0][:100])
     if report.get("nan_outputs"):
-        return CheckResult(name, False, "OK with NaN outputs",
-                           f"after a {case} every call returned OK but the outputs {', '.join(report['nan_outputs'])} "
-                           f"are not finite{said}")
+        through = report.get("depends") or []
+        how = f" (they depend on {report['input']} in the model structure)" if through else ""
+        return CheckResult(name, WARN, "OK with non-finite outputs",
+                           f"after {report['input']} = {report['value']} every call returned OK and the outputs "
+                           f"{', '.join(report['nan_outputs'])} are not finite{how}{said}; {STANDARD['non-finite']}")
     if case in ("NaN input", "Inf input"):  # accepted, and the outputs stayed finite: harmless
         return CheckResult(name, True, "accepted, outputs finite", "")
-    return CheckResult(name, False, f"{what} returned status {status}",
-                       f"a {case} was accepted ({what} returned status {status}) instead of an error{said}")
+    return CheckResult(name, WARN, f"{what} returned status {status}",
+                       f"a {case} was accepted ({what} returned status {status}) instead of an error{said}; "
+                       f"{STANDARD['accepted']}")
 
 
 # -- the child process
@@ -97,60 +121,95 @@ def _child(path: str, kind: str, step: float, cases: list[str]) -> None:
         print(json.dumps(report), flush=True)
 
 
-def _misuse(target: Target, kind: str, step: float, case: str) -> dict:
-    from pendfmu.check.fmu import Driver
+def _attempt(unit, call: str, function, *args) -> dict:
+    """Call `function`: its status (an FMUError's, else 0) and the first messages it logged."""
     from pendfmu.errors import FMUError
 
+    before = len(unit.messages)
+    try:
+        function(*args)
+        status = 0
+    except FMUError as error:  # no status: the FMU asked to terminate (Model Exchange), a refusal too
+        status = ERROR if error.status is None else error.status
+    return {"status": status, "logged": unit.messages[before:][:3], "call": call}
+
+
+def _misuse(target: Target, kind: str, step: float, case: str) -> dict:
+    from pendfmu.check.fmu import Driver
+
     unit = Driver(target, kind)
-    fmu = unit.fmu
-
-    def attempt(call: str, function, *args) -> dict:
-        before = len(unit.messages)
-        try:
-            function(*args)
-            status = 0
-        except FMUError as error:  # no status: the FMU asked to terminate (Model Exchange), a refusal too
-            status = ERROR if error.status is None else error.status
-        return {"status": status, "logged": unit.messages[before:][:3], "call": call}
-
+    prefix = "fmi3" if target.fmi3 else "fmi2"
     try:
         if case == "step before initialization":
             if kind == "CS":
-                return attempt("fmi2DoStep", lambda: fmu.doStep(0.0, step))
-            return attempt("fmi2EnterContinuousTimeMode", fmu.enterContinuousTimeMode)
+                return _attempt(unit, f"{prefix}DoStep", lambda: unit.fmu.doStep(0.0, step))
+            return _attempt(unit, f"{prefix}EnterContinuousTimeMode", unit.fmu.enterContinuousTimeMode)
         unit.initialize()
         if case == "unknown value reference":
-            used = {v.valueReference for v in target.md.modelVariables}
-            unknown = max(used, default=0) + 1000
-            return attempt("fmi2GetReal", lambda: fmu.getReal([unknown]))
+            unknown = max((v.valueReference for v in target.md.modelVariables), default=0) + 1000
+            getter = "Float64" if target.fmi3 else "Real"
+            return _attempt(unit, f"{prefix}Get{getter}", lambda: getattr(unit.fmu, "get" + getter)([unknown]))
         if case in ("NaN input", "Inf input"):
-            if not target.inputs:
-                return {"skip": "no Real inputs"}
-            value = math.nan if case == "NaN input" else math.inf
-            v = target.inputs[0]
-            report = attempt(f"fmi2SetReal({v.name})", lambda: fmu.setReal([v.valueReference], [value]))
-            if report["status"] >= ERROR:
-                return report
-            stepped = attempt("fmi2DoStep" if kind == "CS" else "a step", lambda: unit.step(step, None))
-            if stepped["status"] >= ERROR:
-                stepped["logged"] = report["logged"] + stepped["logged"]
-                return stepped
-            outputs = unit.outputs()
-            stepped["nan_outputs"] = [o.name for o, x in zip(target.outputs, outputs) if not math.isfinite(x)]
-            stepped["call"] = f"fmi2SetReal({v.name}) and a step"
-            return stepped
+            return _non_finite_input(unit, step, math.nan if case == "NaN input" else math.inf)
         if case == "fixed parameter set while stepping":
-            fixed = [v for v in target.md.modelVariables if v.causality == "parameter" and v.variability == "fixed"
-                     and v.type == "Real"]
-            if not fixed:
-                return {"skip": "no fixed Real parameters"}
-            v = fixed[0]
-            unit.step(step, None)
-            value = float(v.start) if v.start is not None else 0.0
-            return attempt(f"fmi2SetReal({v.name})", lambda: fmu.setReal([v.valueReference], [value]))
+            return _fixed_parameter(unit, step)
         raise ValueError(f"unknown misuse {case!r}")
     finally:
         unit.free()
+
+
+def _setter(unit, v) -> tuple[str, object]:
+    """(the C function's name, the Python method) that sets variable v."""
+    suffix = accessor(v.type, unit.fmi3)
+    return f"{'fmi3' if unit.fmi3 else 'fmi2'}Set{suffix}", getattr(unit.fmu, "set" + suffix)
+
+
+def _non_finite_input(unit, step: float, value: float) -> dict:
+    """The first floating-point input (a continuous one where there is one: Model Exchange
+    takes a discrete input in an event only) set to NaN or Inf, then a step."""
+    target = unit.target
+    if not target.inputs:
+        return {"skip": "no floating-point inputs to set"}
+    v = min(target.inputs, key=lambda u: u.variability != "continuous")
+    function, setter = _setter(unit, v)
+    report = _attempt(unit, f"{function}({v.name})", lambda: setter([v.valueReference], [value]))
+    if report["status"] >= ERROR:
+        return report
+    stepped = _attempt(unit, f"{'fmi3' if unit.fmi3 else 'fmi2'}DoStep" if unit.kind == "CS" else "a step",
+                       lambda: unit.step(step, None))
+    if stepped["status"] >= ERROR:
+        stepped["logged"] = report["logged"] + stepped["logged"]
+        return stepped
+    outputs = unit.outputs()
+    stepped["nan_outputs"] = [o.name for o, x in zip(target.outputs, outputs) if not math.isfinite(x)]
+    stepped["depends"] = _depending_on(target, v, stepped["nan_outputs"])
+    stepped["input"], stepped["value"] = v.name, str(value)
+    stepped["call"] = f"{function}({v.name}) and a step"
+    return stepped
+
+
+def _depending_on(target: Target, source, names: list[str]) -> list[str]:
+    """Which of the outputs `names` the model structure says depend on `source` (an output
+    without a dependencies list depends on everything, FMI's default)."""
+    depending = []
+    for unknown in getattr(target.md, "outputs", []) or []:
+        dependencies = getattr(unknown, "dependencies", None)
+        if unknown.variable.name in names and (dependencies is None or source in dependencies):
+            depending.append(unknown.variable.name)
+    return depending
+
+
+def _fixed_parameter(unit, step: float) -> dict:
+    """A step, then the first fixed floating-point parameter set to its own start value."""
+    fixed = [v for v in unit.target.md.modelVariables if v.causality == "parameter" and v.variability == "fixed"
+             and v.type in FLOAT and not is_array(v)]
+    if not fixed:
+        return {"skip": "no fixed floating-point parameters"}
+    v = fixed[0]
+    unit.step(step, None)
+    value = float(v.start) if v.start is not None else 0.0
+    function, setter = _setter(unit, v)
+    return _attempt(unit, f"{function}({v.name})", lambda: setter([v.valueReference], [value]))
 
 
 if __name__ == "__main__":

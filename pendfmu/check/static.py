@@ -1,20 +1,25 @@
-"""Static checks: the model description, the binary's exports, the GUID, the capabilities.
+"""Static checks: the model description, the binary's exports, the GUID or instantiation
+token, the capabilities.
 
 Nothing here steps the model further than a few calls: fmpy's `validate_fmu` reads the XML
-only, so the binary is asked directly whether it has every function FMI 2.0 requires for the
-interfaces it declares (ctypes lookups), whether `fmi2Instantiate` refuses a GUID other than
-the one in modelDescription.xml, and whether what the FMU declares it can do works.
+only, so the binary is asked directly whether it has every function FMI requires for the
+interfaces it declares (ctypes lookups), whether instantiation refuses a GUID (FMI 2.0) or
+instantiation token (FMI 3.0) other than the one in modelDescription.xml, and whether what
+the FMU declares it can do works.
 """
 
 from __future__ import annotations
 
 import ctypes
+import platform
 import sys
 
 import numpy as np
 from fmpy.validation import validate_fmu
 
-from pendfmu.check.fmu import CheckResult, Driver, Target, call_error
+from pendfmu.check.driver import StiffModel
+from pendfmu.check.fmu import INCONCLUSIVE, WARN, CheckResult, Driver, Target, call_error
+from pendfmu.check.variables import FLOAT, Element
 from pendfmu.errors import FMUError
 
 COMMON = ("GetTypesPlatform", "GetVersion", "SetDebugLogging", "Instantiate", "FreeInstance", "SetupExperiment",
@@ -32,13 +37,42 @@ REQUIRED = {
 """The functions FMI 2.0 requires a binary to export for each interface it declares (without
 the "fmi2" prefix); those of an optional capability are required too, as stubs."""
 
+TYPES3 = ("Float32", "Float64", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64", "Boolean",
+          "String", "Binary", "Clock")
+COMMON3 = (("GetVersion", "SetDebugLogging", "FreeInstance", "EnterInitializationMode", "ExitInitializationMode",
+            "EnterEventMode", "Terminate", "Reset")
+           + tuple(f"{way}{t}" for t in TYPES3 for way in ("Get", "Set"))
+           + ("GetNumberOfVariableDependencies", "GetVariableDependencies", "GetFMUState", "SetFMUState",
+              "FreeFMUState", "SerializedFMUStateSize", "SerializeFMUState", "DeserializeFMUState",
+              "GetDirectionalDerivative", "GetAdjointDerivative", "EnterConfigurationMode", "ExitConfigurationMode",
+              "GetIntervalDecimal", "GetIntervalFraction", "GetShiftDecimal", "GetShiftFraction",
+              "SetIntervalDecimal", "SetIntervalFraction", "SetShiftDecimal", "SetShiftFraction",
+              "EvaluateDiscreteStates", "UpdateDiscreteStates"))
+REQUIRED3 = {
+    "ME": COMMON3 + ("InstantiateModelExchange", "EnterContinuousTimeMode", "CompletedIntegratorStep", "SetTime",
+                     "SetContinuousStates", "GetContinuousStateDerivatives", "GetEventIndicators",
+                     "GetContinuousStates", "GetNominalsOfContinuousStates", "GetNumberOfEventIndicators",
+                     "GetNumberOfContinuousStates"),
+    "CS": COMMON3 + ("InstantiateCoSimulation", "EnterStepMode", "GetOutputDerivatives", "DoStep"),
+}
+"""The functions FMI 3.0 requires for each interface (section 2.5, FMU Distribution: the
+common functions and all of the interface's, present "even if they are only needed for
+optional capabilities"); of the three instantiation functions only the interface's own."""
+
 WRONG_GUID = "{00000000-0000-0000-0000-000000000000}"
 
 
 def library_path(target: Target, kind: str):
-    platform = {"linux": "linux64", "darwin": "darwin64", "win32": "win64"}.get(sys.platform, sys.platform)
-    suffix = {"linux64": ".so", "darwin64": ".dylib", "win64": ".dll"}.get(platform, ".so")
-    return target.directory / "binaries" / platform / (target.interface(kind).modelIdentifier + suffix)
+    """binaries/<platform>/<modelIdentifier>.<suffix>: FMI 2.0's platform names (linux64) or
+    FMI 3.0's platform tuples (x86_64-linux)."""
+    system = {"linux": "linux", "darwin": "darwin", "win32": "win"}.get(sys.platform, sys.platform)
+    if target.fmi3:
+        machine = {"amd64": "x86_64", "arm64": "aarch64"}.get(platform.machine().lower(), platform.machine().lower())
+        folder = f"{machine}-{'windows' if system == 'win' else system}"
+    else:
+        folder = f"{system}64"
+    suffix = {"linux": ".so", "darwin": ".dylib", "win": ".dll"}.get(system, ".so")
+    return target.directory / "binaries" / folder / (target.interface(kind).modelIdentifier + suffix)
 
 
 def check_xml(target: Target) -> CheckResult:
@@ -46,7 +80,9 @@ def check_xml(target: Target) -> CheckResult:
     if problems:
         return CheckResult("static: model description", False, f"{len(problems)} problems",
                            "; ".join(str(p).strip() for p in problems[:3]))
-    return CheckResult("static: model description", True, f"{len(target.md.modelVariables)} variables valid")
+    figure = "; ".join([f"FMI {target.md.fmiVersion}, {len(target.md.modelVariables)} variables valid",
+                        *target.unchecked, *([target.shortened] if target.shortened else [])])
+    return CheckResult("static: model description", True, figure)
 
 
 def check_exports(target: Target, kind: str) -> CheckResult:
@@ -58,85 +94,68 @@ def check_exports(target: Target, kind: str) -> CheckResult:
         library = ctypes.CDLL(str(path))
     except OSError as error:
         return CheckResult(name, False, "not loadable", str(error))
-    missing = [f"fmi2{f}" for f in REQUIRED[kind] if not hasattr(library, f"fmi2{f}")]
+    prefix, required = ("fmi3", REQUIRED3[kind]) if target.fmi3 else ("fmi2", REQUIRED[kind])
+    missing = [f"{prefix}{f}" for f in required if not hasattr(library, f"{prefix}{f}")]
     if missing:
         return CheckResult(name, False, f"{len(missing)} missing",
-                           f"the binary does not export {', '.join(missing)} (FMI 2.0 requires them for {kind})")
-    return CheckResult(name, True, f"{len(REQUIRED[kind])} functions")
+                           f"the binary does not export {', '.join(missing)} (FMI {target.md.fmiVersion} requires "
+                           f"them for {kind})")
+    return CheckResult(name, True, f"{len(required)} functions")
 
 
 def check_guid(target: Target, kind: str) -> CheckResult:
-    name = f"static: GUID {kind}"
+    """The binary accepts the GUID (FMI 2.0) or instantiation token (FMI 3.0) of its model
+    description, and refuses another: a WARN if it accepts one, as FMI 2.0 section 2.1.5
+    (fmi2Instantiate) and FMI 3.0 (fmi3InstantiateXXX, in the state FMU State Setable) say the
+    FMU "can" use it to check the XML, not that it must."""
+    token = "instantiation token" if target.fmi3 else "GUID"
+    name = f"static: {token} {kind}"
+    instantiate = target_instantiate(target, kind)
     try:
         wrong = Driver(target, kind, guid=WRONG_GUID)
     except FMUError:
         wrong = None
     if wrong is not None:
         wrong.free()
-        return CheckResult(name, False, "wrong GUID accepted",
-                           f"fmi2Instantiate accepted {WRONG_GUID}: the binary does not check the GUID of the "
-                           f"model description it is used with")
+        return CheckResult(name, WARN, f"wrong {token} accepted",
+                           f"{instantiate} accepted {WRONG_GUID}: the binary does not check that the model "
+                           f"description it is used with is its own (FMI lets it: the {token} 'can be used' for that)")
     try:
         right = Driver(target, kind)
     except FMUError as error:
-        return CheckResult(name, False, "own GUID refused",
-                           f"fmi2Instantiate refused the GUID {target.md.guid} of modelDescription.xml: {error}")
+        return CheckResult(name, False, f"own {token} refused",
+                           f"{instantiate} refused the {token} {target.md.guid} of modelDescription.xml: {error}")
     right.free()
     return CheckResult(name, True, "own accepted, wrong refused")
 
 
+def target_instantiate(target: Target, kind: str) -> str:
+    if not target.fmi3:
+        return "fmi2Instantiate"
+    return "fmi3InstantiateCoSimulation" if kind == "CS" else "fmi3InstantiateModelExchange"
+
+
 def check_capabilities(target: Target, kind: str) -> CheckResult:
     """What the interface declares it can do, tried: FMU state get/set, serialization round
-    trip, variable communication steps (CS)."""
+    trip, input derivatives (FMI 2.0 CS), directional derivatives, variable communication
+    steps (CS)."""
     name = f"static: capabilities {kind}"
     interface = target.interface(kind)
-    tried = []
+    tried: list[str] = []
     unit = None
     try:
         unit = Driver(target, kind)
         unit.initialize()
-        h = target.step
-        unit.step(h, None)
-        if interface.canGetAndSetFMUstate:
-            state, time = unit.fmu.getFMUstate(), unit.time
-            before = unit.outputs()
-
-            def restores(saved) -> bool:
-                """Step on, set `saved` back: the outputs are those at the save."""
-                unit.step(h, None)
-                unit.fmu.setFMUstate(saved)
-                unit.time = time
-                return np.array_equal(unit.outputs(), before, equal_nan=True)
-
-            if not restores(state):
-                return CheckResult(name, False, "state get/set",
-                                   "canGetAndSetFMUstate: after fmi2SetFMUstate the outputs are not those at the save")
-            tried.append("get/set state")
-            if interface.canSerializeFMUstate:
-                data = unit.fmu.serializeFMUstate(state)
-                copy = unit.fmu.deSerializeFMUstate(data)
-                if not restores(copy):
-                    return CheckResult(name, False, "serialize",
-                                       "canSerializeFMUstate: a deserialized state does not give the saved outputs")
-                unit.fmu.freeFMUstate(copy)
-                tried.append(f"serialize ({len(data)} bytes)")
-            unit.fmu.freeFMUstate(state)
-        if kind == "CS" and interface.canInterpolateInputs and target.inputs:
-            unit.fmu.setRealInputDerivatives([target.inputs[0].valueReference], [1], [0.0])
-            tried.append("input derivatives")
-        reals = [v for v in target.outputs if v.type == "Real"]
-        if getattr(interface, "providesDirectionalDerivative", False) and reals and target.inputs:
-            slope = unit.fmu.getDirectionalDerivative([reals[0].valueReference], [target.inputs[0].valueReference],
-                                                      [1.0])
-            if not np.all(np.isfinite(slope)):
-                return CheckResult(name, False, "directional derivative",
-                                   f"providesDirectionalDerivative: d{reals[0].name}/d{target.inputs[0].name} = "
-                                   f"{slope[0]} is not finite")
-            tried.append("directional derivative")
+        unit.step(target.step, None)
+        problem = _states(unit, interface, tried) or _derivatives(unit, interface, tried)
+        if problem:
+            return CheckResult(name, False, *problem)
         if kind == "CS" and interface.canHandleVariableCommunicationStepSize:
-            unit.step(h / 2, None)
-            unit.step(h / 3, None)
+            unit.step(target.step / 2, None)
+            unit.step(target.step / 3, None)
             tried.append("variable steps")
+    except StiffModel as error:
+        return CheckResult(name, INCONCLUSIVE, "not run to the end", str(error))
     except Exception as error:
         return CheckResult(name, False, "call failed", "a declared capability failed: " + call_error(error))
     finally:
@@ -145,8 +164,60 @@ def check_capabilities(target: Target, kind: str) -> CheckResult:
     return CheckResult(name, True, ", ".join(tried) or "none declared")
 
 
+def _states(unit: Driver, interface, tried: list[str]) -> tuple[str, str] | None:
+    """canGetAndSetFMUstate and canSerializeFMUstate: a state saved, stepped past and set
+    back gives the outputs at the save, and so does one serialized and deserialized.
+    (figure, message) of what failed, else None."""
+    if not interface.canGetAndSetFMUstate:
+        return None
+    saved, before = unit.get_state(), unit.outputs()
+
+    def restores(state) -> bool:
+        unit.step(unit.target.step, None)
+        unit.set_state(state)
+        return np.array_equal(unit.outputs(), before, equal_nan=True)
+
+    setter = "fmi3SetFMUState" if unit.fmi3 else "fmi2SetFMUstate"
+    if not restores(saved):
+        return "state get/set", f"canGetAndSetFMUstate: after {setter} the outputs are not those at the save"
+    tried.append("get/set state")
+    if interface.canSerializeFMUstate:
+        data = unit.serialize_state(saved)
+        copy = unit.deserialize_state(data, saved)
+        if not restores(copy):
+            return "serialize", "canSerializeFMUstate: a deserialized state does not give the saved outputs"
+        unit.free_state(copy)
+        tried.append(f"serialize ({len(data)} bytes)")
+    unit.free_state(saved)
+    return None
+
+
+def _derivatives(unit: Driver, interface, tried: list[str]) -> tuple[str, str] | None:
+    """Input derivatives (FMI 2.0 CS canInterpolateInputs: FMI 3.0 has no such function) and
+    a directional derivative of the first floating-point output by the first input."""
+    target = unit.target
+    if unit.kind == "CS" and not unit.fmi3 and interface.canInterpolateInputs and target.inputs:
+        unit.fmu.setRealInputDerivatives([target.inputs[0].valueReference], [1], [0.0])
+        tried.append("input derivatives")
+    declared = getattr(interface, "providesDirectionalDerivative", False) or getattr(
+        interface, "providesDirectionalDerivatives", False)
+    floats = [v for v in target.outputs if v.type in FLOAT and not isinstance(v, Element)]
+    if declared and floats and target.inputs:
+        slope = unit.fmu.getDirectionalDerivative([floats[0].valueReference], [target.inputs[0].valueReference], [1.0])
+        if not np.all(np.isfinite(slope)):
+            return "directional derivative", (f"providesDirectionalDerivative: d{floats[0].name}/"
+                                              f"d{target.inputs[0].name} = {slope[0]} is not finite")
+        tried.append("directional derivative")
+    return None
+
+
 def run(target: Target) -> list[CheckResult]:
     results = [check_xml(target)]
+    if not target.interfaces:
+        offered = ["Scheduled Execution"] if getattr(target.md, "scheduledExecution", None) is not None else []
+        results.append(CheckResult("static: interfaces", INCONCLUSIVE, "no Co-Simulation or Model Exchange",
+                                   f"{target.name} offers {' and '.join(offered) or 'no interface pendfmu knows'}; "
+                                   f"pendfmu check drives Co-Simulation and Model Exchange only, so nothing ran"))
     for kind in target.interfaces:
         results.append(check_exports(target, kind))
         if not results[-1].passed:

@@ -12,23 +12,41 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import textwrap
 import traceback
 from collections.abc import Sequence
 
 from pendfmu import __version__
-from pendfmu.cli import build, check, demo, export, fit, report, rig, simulate, system
+from pendfmu.cli import build, check, demo, export, fit, recording_format, report, rig, simulate, system
 from pendfmu.cli.argv import command_options, untangle
 from pendfmu.errors import (EXIT_BAD_INPUT, EXIT_BUILD_FAILED, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, BuildError,
                             FMUError, OptionError, Suspicious)
 from pendfmu.suggest import did_you_mean
 
 SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "export": export,
-               "system": system, "check": check, "report": report}
+               "system": system, "check": check, "report": report, "format": recording_format}
 
 
 # Words a subcommand takes as positionals, so that a list option before them stops there
 # (cli/argv.py): `fit cart --fix eta rec.csv` keeps rec.csv a recording.
 POSITIONAL_WORDS = {"fit": fit.STAGE_NAMES}
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """A command's description as its docstring has it, for a terminal: prose paragraphs
+    wrapped to the width, example lines (indented by four spaces) kept whole on their own
+    lines, and the docstring's markup (``name``, `name`) shown as plain words."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        paragraphs = []
+        for paragraph in text.strip().split("\n\n"):
+            lines = paragraph.split("\n")
+            if all(line.startswith("    ") for line in lines):  # examples: one per line, as written
+                paragraphs.append("\n".join(indent + line.rstrip() for line in lines))
+            else:
+                plain = " ".join(line.strip() for line in lines).replace("``", "").replace("`", "")
+                paragraphs.append(textwrap.fill(plain, width, initial_indent=indent, subsequent_indent=indent))
+        return "\n\n".join(paragraphs)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -59,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
                                                               "command line)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, module in SUBCOMMANDS.items():
-        command = sub.add_parser(name, help=module.HELP, description=module.__doc__)
+        command = sub.add_parser(name, help=module.HELP, description=module.__doc__, formatter_class=HelpFormatter)
         module.add_arguments(command)
         command.set_defaults(run=module.run)
     return parser

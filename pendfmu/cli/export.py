@@ -26,8 +26,8 @@ and cannot do).
 
 With --reference REF.csv [--input STIM.csv]: each written FMU whose variables name every
 column of REF.csv also carries the reference results and the stimulus, in the layout of
-FMI-LS-REF (extra/org.fmi-standard.fmi-ls-ref/: fmi-ls-manifest.xml, experiments.xml,
-reference.csv, stimulus.csv); `pendfmu check FMU` compares with them.
+FMI-LS-REF as the FMI standard's Reference FMUs ship it (extra/org.fmi-standard.fmi-ls-ref/:
+fmi-ls-manifest.xml, <Model>_out.csv, <Model>_in.csv); `pendfmu check FMU` compares with them.
 """
 
 from __future__ import annotations

@@ -1,11 +1,11 @@
 """Fit a model's parameters to recordings: a stage of the paper's rig, all stages in
 order, or a user's FMU or SSP system.
 
-    pendfmu fit current|cart|pendulum REC.csv [REC2.csv ...] [--params P.json] --out P2.json
-    pendfmu fit all DIR [--params P.json] --out P2.json
-    pendfmu fit --fmu X.fmu REC.csv [...] --free NAME ... [--drive INPUT[=COLUMN] ...]
-                [--match OUTPUT[=COLUMN] ...] [--params P.json] --out R.json
-    pendfmu fit --system S.ssp REC.csv [...] --free NAME ... (as --fmu)
+    pendfmu fit current|cart|pendulum REC.csv ... [--params P.json] --out R.json
+    pendfmu fit all DIR [--params P.json] --out R.json
+    pendfmu fit --fmu X.fmu REC.csv ... --free NAME ... [--drive INPUT[=COLUMN]]
+                [--match OUTPUT[=COLUMN]] [--params P.json] --out R.json
+    pendfmu fit --system S.ssp REC.csv ... --free NAME ... (as --fmu)
 
 Recordings are fitted jointly with shared parameters; each recording's sidecar fixes its
 own values (e.g. m_p = 0 for the cart without pendulum). `fit all` sorts a folder's
@@ -43,7 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "by recorded columns (default: each input with a column of its name)")
     parser.add_argument("--match", nargs="+", action="extend", metavar="OUTPUT[=COLUMN]",
                         help="a model: its outputs compared with recorded columns (default: each output with a "
-                             "column of its name)")
+                             "column of its name); a stage: its recorded rate compared as well (pendulum: w, "
+                             "cart: v)")
     parser.add_argument("--initial", nargs="+", action="extend", metavar="SIGNAL=PARAMETER",
                         help="a model: the parameter a sidecar's initial value of SIGNAL sets (default: an output "
                              "x sets a parameter x0 where the model has one)")
@@ -59,9 +60,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--segment", type=float, metavar="SECONDS",
                         help="split each recording (or window) into segments this long, each fitted from its own "
                              "initial states (multiple shooting, for long, closed-loop or unstable runs)")
-    parser.add_argument("--start", choices=("estimated", "measured"),
+    parser.add_argument("--start", choices=("estimated", "measured", "turning"),
                         help="initial states of a window or segment that starts late: estimated (default) or taken "
-                             "from its first readings")
+                             "from its first readings; the pendulum stage: 'turning' starts each recording (window, "
+                             "segment) at the first turning point of its swing, where the rate is known")
     parser.add_argument("--cost", choices=("plain", "quantized"), default="plain",
                         help="residuals: plain least squares, or zero inside each reading's quantization step")
     parser.add_argument("--no-global", action="store_true", help="skip the global search (local refinement only)")

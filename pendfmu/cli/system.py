@@ -1,6 +1,6 @@
 """Write an SSP system of pendfmu's components and/or FMU files, wired by name.
 
-    pendfmu system --out loop.ssp --component Controller Cart \
+    pendfmu system --out loop.ssp --component Controller Cart \\
         --connect Controller.u=Cart.I Cart.x=Controller.y --params loop.json
 
 A component is NAME (one of pendfmu's components: CurrentLoop, Cart, Pendulum,

@@ -31,7 +31,10 @@ class Setup:
     drives (model input -> (column, interpolation)), the matches (model output ->
     column), the initial states to estimate where the recording does not state them
     (column of the state -> the model's parameter for its initial value), and the
-    cheaper model of the global search (every k-th sample, a longer internal step)."""
+    cheaper model of the global search (every k-th sample, a longer internal step).
+    `measured_initial`: initial states that a recording which holds their own column
+    (a tachometer's w) tells by its first reading, estimated in that reading's box unless
+    the sidecar states them."""
 
     name: str
     model: Model
@@ -42,16 +45,24 @@ class Setup:
     coarse_decimate: int = 1
     coarse_values: Mapping[str, float] = field(default_factory=dict)
     starts: tuple[StartState, ...] = ()  # every initial state the recordings can tell (estimated on request)
+    measured_initial: Mapping[str, str] = field(default_factory=dict)  # recorded state column -> its parameter
 
 
 @dataclass(frozen=True)
 class StartState:
     """An initial-state parameter and the recorded column that tells it: its first
-    reading (x0 from x), or, with `rate`, its slope at the start (v0 from x)."""
+    reading (x0 from x), or, with `rate`, its slope at the start (v0 from x); with
+    `turning`, the rate at a turning point of the column (turning.py)."""
 
     parameter: str
     column: str
     rate: bool = False
+    turning: bool = False
+
+    @property
+    def source(self) -> str:
+        """What tells it, as provenance writes it: x, x' (its slope), phi' at its turning point."""
+        return self.column + ("'" if self.rate else "") + (" at its turning point" if self.turning else "")
 
 
 START_SAMPLES = 20
@@ -61,17 +72,19 @@ guessed initial rate (the EMPS benchmark's state initialization window)."""
 
 def start_of(recording: Recording, state: StartState) -> tuple[float, float, float]:
     """(value, low, high) of an initial state from the recording's first readings: a
-    position-like state is the first reading within two sensor steps; a rate the slope
-    of a quadratic through the first START_SAMPLES readings (or a twentieth of a short
-    recording, at least five: a segment's speed may reverse soon), within ten times that
-    slope's standard error (the sensor's error scale through the least squares), a
-    quarter of its size, or one step per window, whichever is widest."""
+    state read directly (x0 from x, w0 from a recorded w) is the first reading, within
+    what its sensor allows (reading_box); a rate the slope of a quadratic through the
+    first START_SAMPLES readings (or a twentieth of a short recording, at least five: a
+    segment's speed may reverse soon), within ten times that slope's standard error (the
+    sensor's error scale through the least squares), a quarter of its size, or one step
+    per window, whichever is widest."""
     values = recording.signal(state.column)
     present = np.flatnonzero(np.isfinite(values))
-    step = recording.resolution(state.column) or signal_scale(recording, state.column)
+    if not len(present):
+        raise RecordingError(f"{recording.source}: no reading of {state.column!r} to tell the initial {state.parameter}")
     if not state.rate:
-        first = float(values[present[0]])
-        return first, first - 2 * step, first + 2 * step
+        return reading_box(recording, state.column, int(present[0]))
+    step = recording.resolution(state.column) or signal_scale(recording, state.column)
     chosen = present[:max(5, min(START_SAMPLES, len(present) // 20))]  # a twentieth of a short segment
     if len(chosen) < 3:
         raise RecordingError(f"{recording.source}: too few readings of {state.column!r} to tell the initial "
@@ -83,6 +96,32 @@ def start_of(recording: Recording, state: StartState) -> tuple[float, float, flo
     standard_error = signal_scale(recording, state.column) * math.sqrt(np.linalg.inv(design.T @ design)[1, 1])
     reach = max(10 * standard_error, 0.25 * abs(slope), step / max(float(t[-1]), 1e-12))
     return slope, slope - reach, slope + reach
+
+
+NOISE_REACH = 4.0
+"""Standard deviations of a sensor's noise by which a true value may lie beyond the
+quantization step of its reading (4: once in 16,000 readings)."""
+
+
+def reading_box(recording: Recording, column: str, index: int = 0) -> tuple[float, float, float]:
+    """(reading, low, high): the true values a sensor could have read as the reading of
+    `column` at sample `index`, as the sidecar describes the sensor. A quantized reading
+    stands for its step (round: half a step either side; floor: the step above it), and
+    noise widens that by NOISE_REACH standard deviations; a sensor of unstated resolution
+    and noise has the noise the fit estimates from the data (signal_scale).
+
+    This is the box of an initial state read off a recording (the release angle, the
+    first reading of a tachometer): the fit cannot move it further than the sensor could
+    have erred, so a start at its edge says that the model wants a start the sensor
+    rules out (fitting/edges.py says why)."""
+    reading = float(recording.signal(column)[index])
+    info = recording.signal_info.get(column)
+    resolution = info.resolution if info and info.resolution else 0.0
+    noise = info.noise if info and info.noise else 0.0
+    if not (resolution or noise):
+        noise = signal_scale(recording, column)
+    low, high = (0.0, resolution) if recording.quantizer(column) == "floor" else (-resolution / 2, resolution / 2)
+    return reading, reading + low - NOISE_REACH * noise, reading + high + NOISE_REACH * noise
 
 
 def signal_scale(recording: Recording, name: str) -> float:
@@ -112,6 +151,7 @@ class Experiment:
     fixed: dict[str, float]  # known parameter values for this recording
     estimated: dict[str, tuple[float, float, float]] = field(default_factory=dict)  # name -> (guess, low, high)
     scales: dict[str, float] = field(default_factory=dict)  # recorded column -> error scale
+    read_from: dict[str, StartState] = field(default_factory=dict)  # an estimated initial state -> what told its box
 
     @property
     def name(self) -> str:
@@ -162,13 +202,24 @@ def through_sensor(experiment: Experiment, name: str, low: float, high: float, f
 START_CHOICES = ("estimated", "measured")
 
 
+def starts_of(setup: Setup, recording: Recording) -> dict[str, StartState]:
+    """Each initial state the recording can tell, by what tells it best: the first of the
+    setup's starts whose column the recording holds (a recorded w before the slope of phi)."""
+    found: dict[str, StartState] = {}
+    for state in setup.starts:
+        if state.column in recording.signals:
+            found.setdefault(state.parameter, state)
+    return found
+
+
 def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float], per_recording: Sequence[str] = (),
             start: str = "estimated") -> Experiment:
     """The experiment of one recording: `fixed` are its known values (given, sidecar and
     initial states merged by the caller).
 
     Estimated for this recording alone: the setup's initial states the recording does
-    not state (the pendulum's release angle), every initial state it can tell when it is
+    not state (the pendulum's release angle), those it records in a column of their own
+    (a tachometer's w: measured_initial), every initial state it can tell when it is
     a window that starts after its file's first sample (a segment of a long run; with
     `start` "measured" these are taken from its first readings instead), and the
     parameters named in `per_recording`. An initial state's box comes from the data
@@ -187,10 +238,11 @@ def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float], per_
                                  f"(the first at t = {recording.time[gaps[0]]:g} s): a drive must be complete; "
                                  f"fit the windows between the gaps")
     experiment = Experiment(recording, setup, dict(fixed))
-    starts = {state.parameter: state for state in setup.starts}
+    starts = starts_of(setup, recording)
     stated = {setup.estimated_initial.get(column, column) for column in recording.initial}
     late = recording.span is not None and not recording.initial
     wanted = [p for c, p in setup.estimated_initial.items() if c not in recording.initial]
+    wanted += [p for c, p in setup.measured_initial.items() if c in recording.signals and c not in recording.initial]
     if late:
         wanted += [p for p in starts if p not in stated]
     wanted += list(per_recording)
@@ -201,6 +253,7 @@ def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float], per_
                 experiment.fixed[name] = value
             else:
                 experiment.estimated[name] = (value, low, high)
+                experiment.read_from[name] = starts[name]
         else:
             experiment.estimated[name] = (fixed.get(name), None, None)  # the fit's box
     for column in setup.match.values():

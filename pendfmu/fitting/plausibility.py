@@ -187,7 +187,7 @@ def _missing_sidecar(experiment: Experiment) -> list[str]:
     path = experiment.recording.path
     sidecar = path.with_suffix(".json").name if path else "a sidecar"
     assumed = [f"{name} = {experiment.fixed[name]:g}" for name in RUN_VALUES.get(experiment.setup.name, ())
-               if name in experiment.fixed]
+               if name in experiment.fixed and name not in experiment.estimated]  # estimated: read off the data
     text = (f"{_where(experiment)}: no sidecar ({sidecar}): the run is assumed to have "
             f"{', '.join(assumed) or 'the default values'} (the given params, or MODEL.md's reference rig), and the "
             f"sensor's error scale is estimated from the data")

@@ -23,8 +23,9 @@ from pendfmu.fitting.models import (checked_values, initial_map, mapping, model_
                                     model_free_parameters, read_for, without_aliases)
 from pendfmu.fitting.plausibility import check_experiment, self_locking_switch, viscous_twins
 from pendfmu.fitting.residuals import FreeParameter, unit_of
-from pendfmu.fitting.spec import STAGE_NAMES, FitSpec
+from pendfmu.fitting.spec import STAGE_NAMES, TURNING, FitSpec
 from pendfmu.fitting.stages import make_experiment, stage_free_parameters
+from pendfmu.fitting.turning import from_turning_point, start_at_turning
 from pendfmu.parameters import check_parameters, read_parameters, rig_values
 from pendfmu.physics import pivot_inertia, settled
 from pendfmu.recording import Recording, RecordingError, read_recording
@@ -81,8 +82,14 @@ def stage_problem(spec: FitSpec) -> Problem:
     stage = spec.target
     known = given_values(spec)
     values = rig_values(known)  # J_cm becomes J_p with each recording's m_p and l, then here
-    experiments = [make_experiment(r, stage, values, spec.drive, spec.per_recording, spec.start or "estimated")
-                   for r in _parts(_read(spec.recordings), spec)]
+    parts = _parts(_read(spec.recordings), spec)
+    if spec.start == TURNING:  # each part from its first turning point, its rate in the box one allows
+        turned = [from_turning_point(part) for part in parts]
+        experiments = [start_at_turning(make_experiment(part, stage, values, spec.drive, spec.per_recording,
+                                                        match=spec.match), point) for part, point in turned]
+    else:
+        experiments = [make_experiment(r, stage, values, spec.drive, spec.per_recording, spec.start or "estimated",
+                                       spec.match) for r in parts]
     values = settled(values, "params")
     _distinct(experiments)
     _check_starts(spec, f"the {stage} stage", experiments)

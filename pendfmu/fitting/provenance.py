@@ -97,13 +97,17 @@ def stage_record(problem, spec, start: Sequence[float]) -> dict:
 
 def _experiment_record(experiment) -> dict:
     """What one recording (window, segment) was fitted with: its span, its drives (model
-    input -> recorded column and interpolation), matches and own values."""
+    input -> recorded column and interpolation), matches (a stage's recorded rate among
+    them when asked), own values, the known initial states it started from (the sidecar's,
+    or the rate at a turning point) and what told each estimated initial state's box."""
     recording = experiment.recording
     span = [float(recording.time[0]), float(recording.time[-1])]
     return {"file": str(recording.path) if recording.path else None, "span": span,
             "drives": {name: list(drive) for name, drive in experiment.setup.drives.items()},
             "match": dict(experiment.match), "estimated": sorted(experiment.estimated),
-            "starts": [[s.parameter, s.column + ("'" if s.rate else "")] for s in experiment.setup.starts],
+            "starts": [[s.parameter, s.source] for s in experiment.setup.starts],
+            "read_from": {name: s.source for name, s in experiment.read_from.items()},
+            "initial": {name: float(value) for name, value in recording.initial.items()},
             "sidecar": sorted(recording.parameters)}
 
 

@@ -17,8 +17,9 @@ import numpy as np
 
 from pendfmu.errors import FMUError, OptionError
 from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, best_candidate
+from pendfmu.fitting.edges import explain_edges
 from pendfmu.fitting.experiment import Experiment
-from pendfmu.fitting.adequacy import RESTARTS, assess, search_until_settled, verdict_warning
+from pendfmu.fitting.adequacy import MODEL_ERROR_LIMIT, RESTARTS, assess, search_until_settled, verdict_warning
 from pendfmu.fitting.labels import is_own
 from pendfmu.fitting.plausibility import SuspiciousData
 from pendfmu.fitting.problem import Problem, build_problem, start_vector
@@ -114,6 +115,7 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
         found.failures_note()
         found.at_least_the_sandwich()
         found.stiction()
+        found.edges()
         if validating:
             bar("validation")
             found.validate(spec)
@@ -218,6 +220,11 @@ class _Found:
         except FMUError as error:  # the result is written regardless
             self.notes.append(f"the stiction's set could not be checked: the simulation at the result fails "
                               f"({error.reason()})")
+
+    def edges(self) -> None:
+        """An estimate at the edge of its box: its flag names the cause, its interval is not a point (edges.py)."""
+        explain_edges(self.problem.free, self.outcome, self.estimates, self.assessed.correlation,
+                      self.problem.experiments, self.spread, MODEL_ERROR_LIMIT)
 
     def statistics(self) -> None:
         free = self.problem.free

@@ -30,7 +30,8 @@ SEQUENCE = "all"
 COSTS = ("plain", "quantized")
 UNCERTAINTY_METHODS = ("bootstrap", "jacobian", "sandwich")
 INTERPOLATIONS = ("hold", "linear")
-STARTS = ("estimated", "measured")
+STARTS = ("estimated", "measured", "turning")
+TURNING = "turning"  # a start that applies to the pendulum stage alone
 HARMONIC_CHOICES = ("auto", "off")
 REPLICATES = 24  # bootstrap replicates by default: each is one local refit
 MIN_REPLICATES = 8  # fewer successful refits than this give no bootstrap interval
@@ -60,7 +61,8 @@ class FitSpec:
         A stage: the recorded signal that drives it (I_c, I, u, a). A model: its inputs by
         recorded column (default: equal names).
     match : mapping output -> column, optional
-        A model: its outputs compared with recorded columns (default: equal names).
+        A model: its outputs compared with recorded columns (default: equal names). A
+        stage: its recorded rate compared as well (w for the pendulum, v for the cart).
     initial : mapping signal -> parameter, optional
         A model: the parameter a sidecar's initial value of a signal sets.
     interpolation : {'hold', 'linear'} or None
@@ -71,8 +73,10 @@ class FitSpec:
         Only these time windows of each recording, each from its own initial states.
     segment : float or None
         Each recording (or window) split into segments this long (seconds).
-    start : {'estimated', 'measured'} or None
-        A later window's initial states: estimated (None, the default) or measured.
+    start : {'estimated', 'measured', 'turning'} or None
+        A later window's initial states: estimated (None, the default) or measured. The
+        pendulum stage: 'turning' starts each recording (window, segment) at the first
+        turning point of its swing, where the rate is known (turning.py).
     cost : {'plain', 'quantized'}
         Plain least squares, or zero inside each reading's quantization step.
     harmonic : {'auto', 'off'}
@@ -184,15 +188,15 @@ def check_applicable(spec: FitSpec) -> None:
     """Refuse, before any work, an option that does not apply to the spec's target."""
     kind = spec.kind
     if kind in ("stage", "sequence"):
-        for option in ("match", "initial", "interpolation"):
+        for option in ("initial", "interpolation"):
             if getattr(spec, option) is not None:
-                raise OptionError(option, f"is for a model (an FMU or SSP system); {spec.target_name} "
-                                          f"{'matches its own signals' if option == 'match' else 'sets its own'}")
+                raise OptionError(option, f"is for a model (an FMU or SSP system); {spec.target_name} sets its own")
+    if kind == "sequence" and spec.match is not None:
+        raise OptionError("match", "fit all compares each stage's own signals; fit the pendulum or the cart stage "
+                                   "alone to compare its recorded rate (w, v) as well")
     if spec.harmonic != "auto" and spec.target not in ("current", SEQUENCE):
         raise OptionError("harmonic", f"is the current stage's PWM ripple; {spec.target_name} has none")
-    if spec.start is not None and not (spec.windows or spec.segment):
-        raise OptionError("start", "sets the initial states of a window or segment that starts late; give "
-                                   "windows or a segment length, or leave it out")
+    _check_start(spec)
     if not spec.global_search.enabled:
         _check_no_search(spec)
     if spec.replicates is not None and spec.uncertainty != "bootstrap":
@@ -203,6 +207,18 @@ def check_applicable(spec: FitSpec) -> None:
         _check_stage_drive(spec, spec.target)
     if not spec.recordings:
         raise OptionError("recordings", f"{spec.target_name}: give its recordings")
+
+
+def _check_start(spec: FitSpec) -> None:
+    """'turning' is the pendulum stage's; the other starts set the states of a late window."""
+    if spec.start == TURNING:
+        if spec.target != "pendulum":
+            raise OptionError("start", f"'turning' starts a swing at its first turning point: the pendulum stage's; "
+                                       f"{spec.target_name} has no swing (fit the pendulum stage)")
+    elif spec.start is not None and not (spec.windows or spec.segment):
+        raise OptionError("start", "sets the initial states of a window or segment that starts late; give "
+                                   "windows or a segment length, or leave it out ('turning': the pendulum "
+                                   "stage from its first turning point)")
 
 
 def _check_no_search(spec: FitSpec) -> None:

@@ -48,6 +48,10 @@ class Stage:
     drives: tuple[str, ...]  # acceptable drive signals, preferred first ("" = none)
     estimated_initial: tuple[str, ...] = ()  # initial states estimated when a recording does not state them
     starts: tuple[StartState, ...] = ()  # the initial states a recording can tell (estimated on request)
+    # The joint's speed, where a recording holds it (a tachometer, or a rate the logger
+    # derives): its first reading tells the initial speed, and the fit compares it too when
+    # asked (match).
+    rates: tuple[str, ...] = ()
     # The global search's cheaper model: every k-th sample, and a longer internal step.
     # Only where the drive is slow: the cart's drive current carries the PWM ripple, which
     # a coarser sampling would alias.
@@ -58,10 +62,11 @@ class Stage:
 STAGES: dict[str, Stage] = {
     "current": Stage("current", "CurrentLoop", ("I",), ("T_i", "dIdt_max"), ("I_c",), starts=(StartState("I0", "I"),)),
     "cart": Stage("cart", "Cart", ("x",), ("eta", "k_fwc", "F_Kc", "F_Sc"), ("I_c", "I", "u"),
-                  coarse_solver_step=4e-4, starts=(StartState("x0", "x"), StartState("v0", "x", rate=True))),
+                  coarse_solver_step=4e-4, rates=("v",),
+                  starts=(StartState("x0", "x"), StartState("v0", "v"), StartState("v0", "x", rate=True))),
     "pendulum": Stage("pendulum", "Pendulum", ("phi",), ("k_fwp", "T_Kp", "T_Sp"), ("a", ""),
-                      estimated_initial=("phi",), coarse_decimate=10, coarse_solver_step=4e-4,
-                      starts=(StartState("phi0", "phi"), StartState("w0", "phi", rate=True))),
+                      estimated_initial=("phi",), coarse_decimate=10, coarse_solver_step=4e-4, rates=("w",),
+                      starts=(StartState("phi0", "phi"), StartState("w0", "w"), StartState("w0", "phi", rate=True))),
 }
 
 
@@ -125,40 +130,62 @@ def default_free(stage: str, drives: Sequence[str]) -> tuple[str, ...]:
 
 
 @lru_cache(maxsize=None)
-def stage_setup(stage: str, drive: str) -> Setup:
-    """The Setup of a stage driven by the recorded column `drive` ("" for none)."""
+def stage_setup(stage: str, drive: str, compared: tuple[str, ...] = ()) -> Setup:
+    """The Setup of a stage driven by the recorded column `drive` ("" for none), that
+    compares its rates named in `compared` (match) besides its own signals."""
     spec = STAGES[stage]
-    match = {name: name for name in spec.fitted}
+    match = {name: name for name in (*spec.fitted, *compared)}
     estimated = {name: INITIAL_STATE_PARAMETERS[name] for name in spec.estimated_initial}
+    measured = {name: INITIAL_STATE_PARAMETERS[name] for name in spec.rates}
     coarse = {"solver_step": spec.coarse_solver_step} if spec.coarse_solver_step else {}
     if stage == "cart" and drive == "I_c":
         model = Model.of_components("cart", {"CurrentLoop": "CurrentLoop", "Cart": "Cart"},
                                     [Wire("CurrentLoop", "I_mean", "Cart", "I")])
         return Setup(stage, model, {"I_c": ("I_c", "hold")}, match, estimated, settling_current,
-                     spec.coarse_decimate, coarse, spec.starts)
+                     spec.coarse_decimate, coarse, spec.starts, measured)
     model = Model.of_components(stage, {spec.component: spec.component})
     # a recorded current is held, as the converter's command is, and so is a drive command u
     # (PWM duty, voltage); a recorded current or acceleration the cart follows is smooth, so
     # linear between samples
     drives = {drive: (drive, "hold" if drive in ("I_c", "u") else "linear")} if drive else {}
-    return Setup(stage, model, drives, match, estimated, None, spec.coarse_decimate, coarse, spec.starts)
+    return Setup(stage, model, drives, match, estimated, None, spec.coarse_decimate, coarse, spec.starts, measured)
 
 
 def make_experiment(recording: Recording, stage: str, parameters: Mapping[str, float],
-                    drive: str | None = None, per_recording: Sequence[str] = (), start: str = "estimated"
-                    ) -> Experiment:
-    """Check that `recording` has what `stage` needs and gather its fixed values."""
+                    drive: str | None = None, per_recording: Sequence[str] = (), start: str = "estimated",
+                    match: Mapping[str, str] | None = None) -> Experiment:
+    """Check that `recording` has what `stage` needs and gather its fixed values. `match`:
+    the stage's rates to compare as well (compared_rates)."""
     if stage not in STAGES:
         raise RecordingError(f"unknown stage {stage!r}; stages: {', '.join(STAGES)}")
     spec = STAGES[stage]
     where = str(recording.path)
-    for name in spec.fitted:
+    compared = compared_rates(stage, match)
+    for name in (*spec.fitted, *compared):
         if name not in recording.signals:
-            raise RecordingError(f"{where}: stage {stage} needs the recorded signal {name!r}; "
+            raise RecordingError(f"{where}: stage {stage} needs the recorded signal {name!r}"
+                                 f"{' (match)' if name in compared else ''}; "
                                  f"columns: {', '.join(('time', *recording.signals))}")
     chosen = _choose_drive(recording, spec, drive)
     fixed = recording_values(parameters, recording)
-    return prepare(recording, stage_setup(stage, chosen), fixed, per_recording, start)
+    return prepare(recording, stage_setup(stage, chosen, compared), fixed, per_recording, start)
+
+
+def compared_rates(stage: str, match: Mapping[str, str] | None) -> tuple[str, ...]:
+    """The rates a stage compares besides its own signals, as the `match` option asks: each
+    output one of the stage's rates (w for the pendulum, v for the cart), compared with the
+    recorded column of its name; the stage's own signals may be named and change nothing."""
+    spec = STAGES[stage]
+    compared = []
+    for output, column in (match or {}).items():
+        if output not in (*spec.fitted, *spec.rates) or column != output:
+            own = ", ".join(spec.rates) or "none"
+            raise OptionError("match", f"the {stage} stage compares {', '.join(spec.fitted)} and, when asked, its "
+                                       f"recorded rate ({own}) with the column of the same name; not "
+                                       f"{output}={column}")
+        if output in spec.rates:
+            compared.append(output)
+    return tuple(compared)
 
 
 def _choose_drive(recording: Recording, spec: Stage, drive: str | None) -> str:

@@ -89,8 +89,16 @@ from pendfmu.recording.sidecar import _read_sidecar
 from pendfmu.recording.writer import check_output_path, write_recording, write_signals
 
 __all__ = ["INITIAL_NAMES", "MAT_TIME_NAMES", "MAX_BYTES", "PARAMETER_NAMES", "QUANTIZERS", "RIG", "SIGNAL_NAMES",
-           "Recording", "RecordingError", "SignalInfo", "Vocabulary", "check_output_path", "quantize", "read_recording",
-           "write_recording", "write_signals"]
+           "Recording", "RecordingError", "SignalInfo", "Vocabulary", "check_output_path", "format_document", "quantize",
+           "read_recording", "write_recording", "write_signals"]
+
+
+def format_document() -> Path:
+    """The recording format's reference (FORMAT.md, shipped with the package): columns,
+    units, the sidecar's keys, the angle and inertia conventions. `pendfmu format` prints it."""
+    from importlib.resources import files
+
+    return Path(str(files(__name__) / "FORMAT.md"))
 
 
 MAX_BYTES: int = 2 * 1024**3

@@ -27,8 +27,11 @@ INTERFACE = {"ForeignCart": "CS", "NoStateCart": "CS", "MEOnly": "ME", "Collidin
 CFLAGS = ("-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra", "-Werror")
 
 
-def build(name: str, out_dir: str | Path) -> Path:
-    """Compile the foreign FMU `name` and write `<out_dir>/<name>.fmu`; returns its path.
+def build(name: str, out_dir: str | Path, defines: tuple[str, ...] = (), sources: Path = SOURCES,
+          fmu_name: str | None = None) -> Path:
+    """Compile the foreign FMU `name` and write `<out_dir>/<fmu_name or name>.fmu`; returns
+    its path. `defines` are extra -D macros (a planted bug, tests/foreign/mutants.py), `sources`
+    a folder with (rewritten) copies of src/.
 
     Raises ValueError for an unknown name and RuntimeError with gcc's output when the
     compilation fails (a warning is an error: -Wall -Wextra -Werror)."""
@@ -44,14 +47,14 @@ def build(name: str, out_dir: str | Path) -> Path:
     headers = Path(fmpy.__file__).resolve().parent / "c-code"
     with tempfile.TemporaryDirectory(prefix=f"{name}-") as work:
         library = Path(work) / f"{name}.so"
-        command = [compiler, *CFLAGS, f"-DFOREIGN_{INTERFACE[name]}", f"-I{headers}", f"-I{SOURCES}",
-                   str(SOURCES / "foreign_fmi2.c"), str(SOURCES / f"{name}.c"), "-o", str(library), "-lm"]
+        command = [compiler, *CFLAGS, f"-DFOREIGN_{INTERFACE[name]}", *(f"-D{d}" for d in defines), f"-I{headers}",
+                   f"-I{sources}", str(sources / "foreign_fmi2.c"), str(sources / f"{name}.c"), "-o", str(library), "-lm"]
         done = subprocess.run(command, capture_output=True, text=True)
         if done.returncode != 0:
             raise RuntimeError(f"building {name} failed:\n{' '.join(command)}\n{done.stderr}")
-        fmu = out_dir / f"{name}.fmu"
+        fmu = out_dir / f"{fmu_name or name}.fmu"
         with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as archive:
-            archive.write(SOURCES / f"{name}.xml", "modelDescription.xml")
+            archive.write(sources / f"{name}.xml", "modelDescription.xml")
             archive.write(library, f"binaries/linux64/{name}.so")
     return fmu
 

@@ -14,7 +14,21 @@
    length of a single RK4 step from the substep's start (to 1e-13 s), v is set to exactly
    0 there and the mode is chosen again. At v = 0 the sliding friction equals F_s for any
    v_s, so a breakaway (|F_A| > F_s) always accelerates away from zero: no chattering,
-   also when F_s < F_c. */
+   also when F_s < F_c.
+
+   Planted bugs, one per build (tests/foreign/mutants.py compiles each with -D<NAME>; none is
+   defined for the correct FMU), for testing `pendfmu check` on an FMU it did not make:
+     MUTANT_EVENTS_AT_POINTS  stick/slip decided only at communication points: a step slides in
+                              the direction it started with, past v = 0, and a cart that passed
+                              zero is stopped at the end of the step (no event location)
+     MUTANT_FORGET_MODE       the mode is kept as a discrete state (the sliding direction is
+                              taken from it), and fmi2SetFMUstate restores everything but it
+                              (foreign_fmi2.c)
+     MUTANT_NAN_ABOVE_11V     above 11 V of input the outputs turn NaN and every call still
+                              returns OK (a motor map that ends at 11 V, no finiteness check)
+     MUTANT_STEP_JUMP         the position output leads the state by the last communication
+                              step (x + h v), so it jumps with the step size
+   (MUTANT_RESET_KEEPS_PARAMETERS, fmi2Reset keeping the parameters, is in foreign_fmi2.c.) */
 
 #include <math.h>
 
@@ -22,6 +36,7 @@
 
 enum { VR_U = 1, VR_X = 2, VR_V = 3, VR_M = 10, VR_K_U, VR_C_V, VR_F_C, VR_F_S, VR_V_S, VR_F_0, VR_X0, VR_V0, VR_H_MAX };
 enum { VR_MODE = 1 };
+enum { VR_X_STATE = 20 }; /* MUTANT_STEP_JUMP: the position state behind the leading output */
 
 static const RealVariable REALS[] = {
     {VR_U, "u", INPUT, 0.0, -INFINITY, INFINITY, 0, "the voltage"},
@@ -44,7 +59,13 @@ static const IntegerVariable INTEGERS[] = {{VR_MODE, "mode", 0}};
 #define R(vr) (c->d.r[vr])
 #define MODE (c->d.i[VR_MODE])
 
-static double active_force(const Instance *c) { return R(VR_K_U) * R(VR_U) + R(VR_F_0); }
+static double active_force(const Instance *c) {
+#ifdef MUTANT_NAN_ABOVE_11V
+    if (R(VR_U) > 11.0)
+        return NAN;
+#endif
+    return R(VR_K_U) * R(VR_U) + R(VR_F_0);
+}
 
 /* Acceleration while sliding in direction s, for any v (continued past v = 0). */
 static double sliding_acceleration(const Instance *c, double force, int s, double v) {
@@ -66,6 +87,10 @@ static void rk4(const Instance *c, double force, int s, double h, double x, doub
 /* The mode for the current speed: sliding while v != 0; at v = 0 stuck unless the active
    force exceeds the stiction force (then sliding in its direction). */
 static int mode_at(const Instance *c, double force) {
+#ifdef MUTANT_FORGET_MODE
+    if (MODE != 0)
+        return MODE; /* sliding until a stop sets the mode to 0 */
+#endif
     double v = R(VR_V);
     if (v != 0.0)
         return v > 0.0 ? 1 : -1;
@@ -102,17 +127,38 @@ static void substep(Instance *c, double force, double h) {
         rk4(c, force, s, hi, x, v, &x1, &v1);
         R(VR_X) = x1;
         R(VR_V) = 0.0;
+        MODE = 0; /* stopped: the mode is chosen again */
         left -= hi;
     }
     /* Only reached when |F_A| exceeds F_s by a rounding error and the start-up cannot
        leave zero: the cart stays where it is. */
-    if (left > 0.0)
+    if (left > 0.0) {
+        R(VR_V) = 0.0;
+        MODE = 0;
+    }
+}
+
+#ifdef MUTANT_EVENTS_AT_POINTS
+/* The planted bug: the whole step slides in the direction of its start, continued past
+   v = 0; a cart that passed zero is stopped at the communication point. */
+static void slide_without_stops(Instance *c, double force, double dt, long n) {
+    int s = MODE;
+    for (long k = 0; k < n && s != 0; k++) {
+        double x1, v1;
+        rk4(c, force, s, dt, R(VR_X), R(VR_V), &x1, &v1);
+        R(VR_X) = x1;
+        R(VR_V) = v1;
+    }
+    if (s * R(VR_V) < 0.0)
         R(VR_V) = 0.0;
 }
+#endif
 
 static fmi2Status initialize(Instance *c) {
     R(VR_X) = R(VR_X0);
     R(VR_V) = R(VR_V0);
+    R(VR_X_STATE) = R(VR_X0);
+    MODE = 0;
     MODE = mode_at(c, active_force(c));
     return fmi2OK;
 }
@@ -121,6 +167,13 @@ static fmi2Status initialize(Instance *c) {
    inaccurate, then unstable, beyond it), dividing the step evenly. */
 static fmi2Status do_step(Instance *c, double h) {
     double force = active_force(c);
+#ifdef MUTANT_NAN_ABOVE_11V
+    if (isnan(force)) { /* the NaN reaches the outputs, and no check follows */
+        R(VR_X) = NAN;
+        R(VR_V) = NAN;
+        return fmi2OK;
+    }
+#endif
     double longest = R(VR_H_MAX);
     if (R(VR_C_V) * longest > R(VR_M))
         longest = R(VR_M) / R(VR_C_V);
@@ -130,15 +183,30 @@ static fmi2Status do_step(Instance *c, double h) {
     if (n > 1e9)
         return fail(c, "fmi2DoStep: a step of %g s would take %g internal steps of %g s", h, n, longest);
     double dt = h / n;
+#ifdef MUTANT_STEP_JUMP
+    R(VR_X) = R(VR_X_STATE);
+#endif
+#ifdef MUTANT_EVENTS_AT_POINTS
+    (void)substep; /* the correct stepping, replaced */
+    MODE = mode_at(c, force);
+    slide_without_stops(c, force, dt, (long)n);
+#else
     for (long k = 0; k < (long)n; k++) {
         substep(c, force, dt);
         if (MODE == 0 && R(VR_V) == 0.0)
             break; /* stuck for the rest of the step */
     }
+#endif
     MODE = mode_at(c, force);
+#ifdef MUTANT_STEP_JUMP
+    R(VR_X_STATE) = R(VR_X);
+    R(VR_X) += h * R(VR_V);
+#endif
+#ifndef MUTANT_NAN_ABOVE_11V
     if (!isfinite(R(VR_X)) || !isfinite(R(VR_V)))
         return fail(c, "fmi2DoStep: the solution is not finite at t = %g (x = %g, v = %g); reduce h_max",
                     c->d.time + h, R(VR_X), R(VR_V));
+#endif
     return fmi2OK;
 }
 

@@ -208,7 +208,16 @@ fmi2Status fmi2Reset(fmi2Component component) {
     if (!c->model->can_reset)
         return fail(c, "fmi2Reset is not supported by %s: free this instance and instantiate a new one", c->model->name);
     c->phase = INSTANTIATED;
+#ifdef MUTANT_RESET_KEEPS_PARAMETERS
+    /* A planted bug (tests/foreign/mutants.py): the parameters set before the reset are kept. */
+    Data before = c->d;
     set_start_values(c);
+    for (size_t k = 0; k < c->model->n_reals; k++)
+        if (c->model->reals[k].causality == PARAMETER)
+            c->d.r[c->model->reals[k].vr] = before.r[c->model->reals[k].vr];
+#else
+    set_start_values(c);
+#endif
     return fmi2OK;
 }
 
@@ -332,7 +341,15 @@ fmi2Status fmi2SetFMUstate(fmi2Component component, fmi2FMUstate FMUstate) {
     if (FMUstate == NULL)
         return fail(c, "fmi2SetFMUstate: no state given");
     const State *s = FMUstate;
+#ifdef MUTANT_FORGET_MODE
+    /* A planted bug (tests/foreign/mutants.py): the Integer variables (the mode) are not restored. */
+    int kept[MAX_INTEGERS];
+    memcpy(kept, c->d.i, sizeof kept);
     c->d = s->d;
+    memcpy(c->d.i, kept, sizeof kept);
+#else
+    c->d = s->d;
+#endif
     c->phase = s->phase;
     return fmi2OK;
 }
