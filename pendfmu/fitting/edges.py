@@ -35,7 +35,7 @@ from collections.abc import Mapping, Sequence
 
 from pendfmu.fitting.experiment import Experiment, StartState
 from pendfmu.fitting.residuals import FreeParameter
-from pendfmu.fitting.result import Estimate
+from pendfmu.fitting.result import Estimate, Flag
 from pendfmu.fitting.statistics import Z95, at_bound, estimate_uncertainty
 
 POINT = 1e-6
@@ -106,11 +106,12 @@ def sensor_edge(p: FreeParameter, lower: bool, experiment: Experiment, state: St
 
 
 def _set_bound_flag(estimate: Estimate, text: str) -> None:
-    estimate.flags = [text if flag.startswith(BOUND_FLAGS) else flag for flag in estimate.flags]
+    estimate.flags = [Flag(text, "at-bound") if flag.startswith(BOUND_FLAGS) else flag for flag in estimate.flags]
 
 
 def _extend_bound_flag(estimate: Estimate, more: str) -> None:
-    estimate.flags = [flag + more if flag.startswith(BOUND_FLAGS) else flag for flag in estimate.flags]
+    estimate.flags = [Flag(flag + more, "at-bound") if flag.startswith(BOUND_FLAGS) else flag
+                      for flag in estimate.flags]
 
 
 def _is_point(interval: tuple[float, float], p: FreeParameter) -> bool:
@@ -126,8 +127,8 @@ def _one_sided(estimate: Estimate, p: FreeParameter, lower: bool, stderr: float 
     low, high = (edge, min(edge + reach, p.high)) if lower else (max(edge - reach, p.low), edge)
     estimate.ci95 = (float(low), float(high))
     why = "the Jacobian's half-width" if known else "the whole box: the Jacobian gives no width either"
-    estimate.flags.append(f"one-sided 95 % interval [{low:.6g}, {high:.6g}] from the edge of its box ({why}): "
-                          f"every refit stayed at the edge, so the refits' spread is nil")
+    estimate.flags.append(Flag(f"one-sided 95 % interval [{low:.6g}, {high:.6g}] from the edge of its box ({why}): "
+                               f"every refit stayed at the edge, so the refits' spread is nil", "at-bound"))
 
 
 def _drop_correlations(label: str, estimates: Mapping[str, Estimate],

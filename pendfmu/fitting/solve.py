@@ -224,7 +224,7 @@ class _Found:
     def edges(self) -> None:
         """An estimate at the edge of its box: its flag names the cause, its interval is not a point (edges.py)."""
         explain_edges(self.problem.free, self.outcome, self.estimates, self.assessed.correlation,
-                      self.problem.experiments, self.spread, MODEL_ERROR_LIMIT)
+                      self.problem.experiments, self.verdict["spread"], MODEL_ERROR_LIMIT)
 
     def statistics(self) -> None:
         free = self.problem.free

@@ -100,13 +100,16 @@ def validate(spec: FitSpec, problem: Problem, values: Mapping[str, float],
 
 
 def _movement(early: Estimate, late: Estimate | None) -> dict | None:
-    """How far a parameter moves from the early halves to the late, in combined intervals."""
+    """How far a parameter moves from the early halves to the late, in combined intervals;
+    None when the halves give no finite interval to measure it by (a half at its box's edge
+    whose refits never moved has a zero-width one: no scale, not an infinite move)."""
     if late is None or early.ci95 is None or late.ci95 is None:
         return None
     combined = math.hypot((early.ci95[1] - early.ci95[0]) / 2, (late.ci95[1] - late.ci95[0]) / 2)
+    if not (math.isfinite(combined) and combined > 0):
+        return None
     change = late.value - early.value
-    return {"early": early.value, "late": late.value,
-            "ratio": abs(change) / combined if combined > 0 else (math.inf if change else 0.0),
+    return {"early": early.value, "late": late.value, "ratio": abs(change) / combined,
             "direction": "rises" if change > 0 else "falls"}
 
 
