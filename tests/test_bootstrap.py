@@ -114,3 +114,39 @@ def test_bootstrap_spread_matches_the_estimators_own(monte_carlo):
         print(f"{name}: Monte Carlo sd {spread[k]:.3g}, bootstrap {booted.estimates[name].stderr:.3g} "
               f"({ratio:.2f}), Jacobian {quick.estimates[name].stderr:.3g} ({quick.estimates[name].stderr / spread[k]:.2f})")
         assert 0.55 < ratio < 1.8, name
+
+
+def _square(n: int) -> int:
+    return n * n
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_each_finished_refit_is_counted_and_the_results_keep_their_order(workers):
+    """The progress bar counts a refit as it finishes, in this process or a pool's."""
+    counted = []
+    from pendfmu.fitting.bootstrap import parallel_map
+
+    assert parallel_map(_square, list(range(7)), workers, done=lambda: counted.append(1)) == [n * n for n in range(7)]
+    assert len(counted) == 7
+
+
+def test_the_bootstrap_phase_shows_its_count_and_the_time_left(capsys):
+    """On a terminal the bootstrap has a bar of its own: refits done of all, and the time
+    left at their pace (tqdm's '<' estimate)."""
+    import time
+
+    from pendfmu.fitting.progress import Progress
+
+    bar = Progress("cart", 3, enabled=True)
+    bar("global: generation 1")
+    tick = bar.phase("bootstrap", 4, "refit")
+    for _ in range(2):
+        time.sleep(0.12)
+        tick()
+    bar.bar.refresh()
+    shown = capsys.readouterr().err.replace("\r", "\n").splitlines()
+    last = [line for line in shown if "bootstrap" in line][-1]
+    assert "fit cart: bootstrap" in last and "2/4" in last and "<00:0" in last, last
+    bar.close()
+    assert bar.bar is None
+    Progress("cart", 3, enabled=False).phase("bootstrap", 4, "refit")()  # silent off a terminal

@@ -126,19 +126,29 @@ def refit(job: RefitJob) -> tuple[np.ndarray, int]:
         residuals.close()
 
 
-def parallel_map(function: Callable, jobs: Sequence, workers: int = 0, scheduler: str | None = None) -> list:
-    """`function` over `jobs` in order: on a Dask cluster, in local processes, or here."""
+def parallel_map(function: Callable, jobs: Sequence, workers: int = 0, scheduler: str | None = None,
+                 done: Callable[[], None] = lambda: None) -> list:
+    """`function` over `jobs` in order: on a Dask cluster, in local processes, or here;
+    `done` is called as each job finishes (the progress bar's count)."""
     if scheduler:
-        from distributed import Client
+        from distributed import Client, as_completed
 
         with Client(scheduler, set_as_default=False) as client:
-            return client.gather(client.map(function, jobs, pure=False))
+            futures = client.map(function, jobs, pure=False)
+            for _ in as_completed(futures):
+                done()
+            return client.gather(futures)
     workers = min(workers or os.cpu_count() or 1, len(jobs))
     if workers <= 1:
-        return [function(job) for job in jobs]
+        return [_counted(function(job), done) for job in jobs]
     context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
     with context.Pool(workers, initializer=_ignore_interrupt) as pool:
-        return pool.map(function, jobs, chunksize=1)
+        return [_counted(result, done) for result in pool.imap(function, jobs, chunksize=1)]
+
+
+def _counted(result, done: Callable[[], None]):
+    done()
+    return result
 
 
 def _ignore_interrupt() -> None:
@@ -161,7 +171,7 @@ def data_seed(residuals: Residuals) -> int:
 
 def bootstrap(residuals: Residuals, u: np.ndarray, replicates: int = REPLICATES,
               upstream: Sequence[dict[str, float]] | None = None, workers: int = 0,
-              scheduler: str | None = None) -> Replicates:
+              scheduler: str | None = None, done: Callable[[], None] = lambda: None) -> Replicates:
     """Refit `replicates` synthetic copies of the stage's recordings (module docstring).
 
     The replicates' rig is the estimate rounded to GRID of the search box: far finer than
@@ -181,7 +191,7 @@ def bootstrap(residuals: Residuals, u: np.ndarray, replicates: int = REPLICATES,
                             for k, e in enumerate(residuals.experiments))
         jobs.append(RefitJob(experiments, tuple(residuals.free), {**residuals.shared, **above}, np.array(u),
                              residuals.cost))
-    results = parallel_map(refit, jobs, workers, scheduler)
+    results = parallel_map(refit, jobs, workers, scheduler, done)
     values = np.array([r[0] for r in results]).reshape(replicates, len(residuals.free))
     estimate = physical(residuals.free, u)
     # a failed refit hands the estimate to later stages: they must have a value to run with

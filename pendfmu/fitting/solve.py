@@ -10,6 +10,7 @@ warnings go, --strict -- is its Session, not part of what it fits.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -107,7 +108,7 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
         bar("uncertainty")
         verdict = assess(outcome, searches)
         method = interval_method(spec.uncertainty, verdict)
-        assessed = assess_uncertainty(method, residuals, outcome, spec.replicate_count, upstream, options)
+        assessed = assess_uncertainty(method, residuals, outcome, spec.replicate_count, upstream, options, bar)
         found = _Found(problem, residuals, outcome, assessed, verdict)
         if method != spec.uncertainty:
             found.notes.append(f"intervals by the {method} instead of the {spec.uncertainty}: the residuals stand far "
@@ -195,8 +196,11 @@ class _Found:
         marked and its interval widened; on a fit as good as the sensors only a strong
         disagreement counts, and it makes the fit model-inadequate."""
         adequate = self.verdict["verdict"] == "adequate"
+        started = time.perf_counter()
         consistency = validate(spec, self.problem, {**self.problem.values, **self.fitted},
                                None if adequate else fit_a_half)
+        if consistency:  # what the validation cost, beside the search's fit.seconds (scripts/interval_cost.py)
+            consistency["seconds"] = time.perf_counter() - started
         self.verdict["windows"] = consistency
         if not adequate:
             hold_the_halves(self.estimates, consistency)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pendfmu.fitting.bootstrap import REPLICATES, bootstrap, bootstrap_estimates
+from pendfmu.fitting.progress import Progress
 from pendfmu.fitting.result import Estimate, Flag
 from pendfmu.fitting.statistics import estimate_uncertainty, sandwich_estimates, unknown_uncertainty
 from pendfmu.fitting.residuals import Residuals, physical
@@ -39,15 +40,17 @@ class Assessment:
 
 
 def assess_uncertainty(method: str, residuals: Residuals, outcome, replicates: int = REPLICATES,
-                       upstream: Sequence[Mapping[str, float]] | None = None, options=None) -> Assessment:
-    """Intervals for the optimum in `outcome` (optimizer.Outcome) by `method`."""
+                       upstream: Sequence[Mapping[str, float]] | None = None, options=None,
+                       progress: Progress | None = None) -> Assessment:
+    """Intervals for the optimum in `outcome` (optimizer.Outcome) by `method`; `progress`
+    shows the bootstrap's refits and the time they have left."""
     if method not in METHODS:
         raise ValueError(f"uncertainty must be one of {', '.join(METHODS)}, not {method!r}")
     start = time.perf_counter()
     free = residuals.free
     if method == "bootstrap" and len(free):
         try:
-            assessment = _bootstrap(residuals, outcome, replicates, upstream, options)
+            assessment = _bootstrap(residuals, outcome, replicates, upstream, options, progress)
         except KeyboardInterrupt:
             assessment = _jacobian(residuals, outcome)
             assessment.notes.append("the bootstrap was interrupted: the intervals are the fast Jacobian ones, "
@@ -116,11 +119,12 @@ def _jacobian(residuals: Residuals, outcome) -> Assessment:
                           {"method": "none"})
 
 
-def _bootstrap(residuals: Residuals, outcome, count: int, upstream, options) -> Assessment:
+def _bootstrap(residuals: Residuals, outcome, count: int, upstream, options, progress: Progress | None) -> Assessment:
     above = list(upstream) if upstream is not None and len(upstream) == count else None
     workers = getattr(options, "workers", 0)
     scheduler = getattr(options, "scheduler", None)
-    found = bootstrap(residuals, outcome.u, count, above, workers, scheduler)
+    done = progress.phase("bootstrap", count, "refit") if progress is not None else (lambda: None)
+    found = bootstrap(residuals, outcome.u, count, above, workers, scheduler, done)
     good = count - found.failures
     summary = {"method": "bootstrap", "replicates": count, "failed": found.failures, "errors_from": found.source,
                "upstream": above is not None}
