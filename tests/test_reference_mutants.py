@@ -29,7 +29,8 @@ pytestmark = pytest.mark.skipif(not FMUS, reason=f"the Reference FMUs are not in
 
 MADE_FOR = {
     "events_at_points": ({"convergence: h, h/2, h/4 CS"}, "the result moves with the communication step: v changes"),
-    "forget_counter": ({"rollback: FMU state CS", "rollback: FMU state ME"},
+    "forget_counter": ({"rollback: FMU state CS", "rollback: serialized state CS", "rollback: FMU state ME",
+                        "rollback: serialized state ME"},
                        'Variable "counter" cannot be incremented for values >= 10.'),
     "forget_next_tick": ({"rollback: FMU state CS", "rollback: serialized state CS", "rollback: FMU state ME",
                           "rollback: serialized state ME"}, "does not reproduce the run: counter at t ="),
