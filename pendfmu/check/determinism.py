@@ -71,7 +71,7 @@ def fresh_instances(target: Target, kind: str, first: np.ndarray, second: np.nda
 
 
 def reset(target: Target, kind: str, first: np.ndarray) -> CheckResult:
-    """The row for fmi2Reset: back to the start values, and a parameter set after it used."""
+    """The row for fmi2Reset (fmi3Reset): back to the start values, and a parameter set after it used."""
     name = f"determinism: reset {kind}"
     try:  # before the instance under test exists (an FMU may allow one instance at a time)
         varied, fresh, effect, tried = _influential(target, kind, first)
@@ -110,20 +110,21 @@ def _reset_row(target, unit, name, first, varied, fresh, effect, tried) -> Check
     # the instance's first run with p = b (not a: an FMU that derives values from p once
     # would otherwise look right by chance), then reset: back to the start values
     stimulus = f" [{excitation(target).label}]"
+    call = f"{'fmi3' if target.fmi3 else 'fmi2'}Reset"  # the FMU's own function, named in the rows
     b = _other_value(varied) if varied else None
     _run(target, unit, {varied[0].name: b} if varied else {})
     try:
         unit.reset()
     except FMUError as error:
-        return CheckResult(name, True, "fmi2Reset refused", call_error(error) + "; a host must instantiate anew")
+        return CheckResult(name, True, f"{call} refused", call_error(error) + "; a host must instantiate anew")
     after = _run(target, unit)
     problems = []
     difference = compare(after, first)
     if difference != 0.0:
         what = f" (after running with {varied[0].name} = {b:g})" if varied else ""
-        problems.append(f"a run after fmi2Reset{what} differs from a fresh instance's: "
+        problems.append(f"a run after {call}{what} differs from a fresh instance's: "
                         + first_difference(target, after, first, times(target, len(first)))
-                        + (f"; fmi2Reset must bring {varied[0].name} back to its start value "
+                        + (f"; {call} must bring {varied[0].name} back to its start value "
                            f"{float(varied[0].start):g}" if varied else ""))
     figure = f"max difference {difference:.3g}"
     if varied:
@@ -133,7 +134,7 @@ def _reset_row(target, unit, name, first, varied, fresh, effect, tried) -> Check
         difference = compare(after_set, fresh)
         figure += f"; {p.name} = {a:g} set after reset: {difference:.3g}"
         if difference != 0.0:
-            problems.append(f"{p.name} set to {a:g} after fmi2Reset does not act like a fresh instance with "
+            problems.append(f"{p.name} set to {a:g} after {call} does not act like a fresh instance with "
                             f"{p.name} = {a:g} (the FMU keeps using an old value): "
                             + first_difference(target, after_set, fresh, times(target, len(fresh))))
         else:
@@ -145,7 +146,7 @@ def _reset_row(target, unit, name, first, varied, fresh, effect, tried) -> Check
     if varied and effect == 0:
         return CheckResult(name, INCONCLUSIVE, figure + " (no parameter tried changes the outputs)" + stimulus,
                            unexercised(target, f"none of {', '.join(tried)} changes the outputs (a value kept "
-                                               f"across fmi2Reset would not show)") + ", or choose another parameter")
+                                               f"across {call} would not show)") + ", or choose another parameter")
     return CheckResult(name, True, figure + stimulus)
 
 

@@ -91,19 +91,28 @@ def _rollback(target: Target, kind: str, unit: Driver, plan: Plan, serialize: bo
     for k in reversed(plan.points):
         end = n if k in plan.to_end else min(n, k + window)
         state, mode = saved[k]
-        unit.set_state(state)
-        again = unit.run(h, end * h, stimulus)
+        said = f" (modes {_modes(target, mode)} at the save)" if mode else ""
+        try:
+            unit.set_state(state)
+            again = unit.run(h, end * h, stimulus)
+        except Exception as error:  # the FMU's own error on a rerun is the rollback's failure
+            problems.append(f"after restoring the state saved at t = {k * h:.6g} s{said} the rerun fails: "
+                            f"{call_error(error)}")
+            continue
         difference = compare(again, reference[k:end + 1])
         worst = max(worst, difference)
         exercised += bool(exercise.moved(reference[k:end + 1]).any())
         if difference != 0.0:
             where = first_difference(target, again, reference[k:end + 1], np.arange(k, end + 1) * h)
-            said = f" (modes {_modes(target, mode)} at the save)" if mode else ""
             problems.append(f"restoring the state saved at t = {k * h:.6g} s{said} does not reproduce the run: "
                             f"{where}")
     results = [_row(target, kind, plan, saved, worst, problems, exercised)]
     if serialize:
-        results.append(_serialized(target, kind, unit, plan, saved, reference))
+        try:
+            results.append(_serialized(target, kind, unit, plan, saved, reference))
+        except Exception as error:
+            results.append(CheckResult(f"rollback: serialized state {kind}", False, "call failed",
+                                       f"serializing, restoring or rerunning a saved state: {call_error(error)}"))
     for state, _ in saved.values():
         unit.free_state(state)
     return results
