@@ -81,6 +81,9 @@ class ExperimentFit:
     # display envelope (a result read back from its file): the envelope's own RMS is not it
     rms: dict[str, float] = field(default_factory=dict)
     samples: int | None = None  # the recording's samples, when the arrays hold fewer
+    # per signal the residual diagnostics of every sample (diagnostics.py), as a result file
+    # stores them beside the envelope; empty while the arrays hold every sample
+    diagnostics: dict[str, dict] = field(default_factory=dict)
 
 
 @dataclass
@@ -161,7 +164,8 @@ class FitResult:
 
 def experiment_dict(fit: ExperimentFit) -> dict:
     """One recording's fit for the result file: long signals reduced to their envelope,
-    with the RMS error of every sample kept beside it; a missing sample (NaN) is null."""
+    with the RMS error and the residual diagnostics (diagnostics.py) of every sample kept
+    beside it; a missing sample (NaN) is null."""
     signals = list(fit.recorded)
     residuals = [np.asarray(fit.recorded[s], float) - np.asarray(fit.simulated[s], float) for s in signals]
     arrays = [np.asarray(fit.recorded[s], float) for s in signals] + [np.asarray(fit.simulated[s], float)
@@ -169,11 +173,14 @@ def experiment_dict(fit: ExperimentFit) -> dict:
     reduced = fit.samples is not None and len(fit.time) < fit.samples  # read back: already its envelope
     index = envelope_indices(arrays) if arrays and not reduced else np.arange(len(fit.time))
     rms = {s: (fit.rms[s] if s in fit.rms else _rms(r)) for s, r in zip(signals, residuals)}
+    from pendfmu.fitting.diagnostics import summaries  # it reads ExperimentFit: imported when used
+
     return {"name": fit.name, "samples": fit.samples or len(fit.time), "time": _json_array(fit.time, index),
             "recorded": {s: _json_array(fit.recorded[s], index) for s in signals},
             "simulated": {s: _json_array(fit.simulated[s], index) for s in signals},
             "resolution": dict(fit.resolution), "scale": dict(fit.scale), "rms": rms,
-            "values": dict(fit.values), "overrides": dict(fit.overrides)}
+            "values": dict(fit.values), "overrides": dict(fit.overrides),
+            "diagnostics": {s: d.to_dict() for s, d in summaries(fit).items()}}
 
 
 def _rms(residual: np.ndarray) -> float | None:
@@ -194,7 +201,8 @@ def _experiment_from(entry: dict) -> ExperimentFit:
         entry["name"], _array(entry["time"]), {s: _array(v) for s, v in entry["recorded"].items()},
         {s: _array(v) for s, v in entry["simulated"].items()}, dict(entry.get("resolution", {})),
         dict(entry.get("scale", {})), dict(entry.get("values", {})), dict(entry.get("overrides", {})),
-        {s: v for s, v in entry.get("rms", {}).items() if v is not None}, entry.get("samples"))
+        {s: v for s, v in entry.get("rms", {}).items() if v is not None}, entry.get("samples"),
+        dict(entry.get("diagnostics", {})))
 
 
 def read_result(path: str | Path) -> FitResult:

@@ -219,6 +219,19 @@ MIN_BATCHES = 8  # a series holds this many batches at least: fewer cannot estim
 BATCH_LENGTHS = 4  # a batch spans this many correlation lengths (shorter ones underestimate the spread)
 
 
+def autocorrelation(residual: np.ndarray, max_lag: int) -> np.ndarray:
+    """The sample autocorrelation of a series at lags 0..max_lag: its autocovariance (the
+    sum of products over the overlap, divided by the series' length for every lag, which
+    keeps the estimate positive definite) over its variance. Zeros for a constant series."""
+    n = len(residual)
+    centred = residual - residual.mean()
+    spectrum = np.fft.rfft(centred, 2 * n)
+    autocovariance = np.fft.irfft(spectrum * np.conj(spectrum), 2 * n)[: min(max_lag, n - 1) + 1]
+    if autocovariance[0] <= 0:
+        return np.zeros_like(autocovariance)
+    return autocovariance / autocovariance[0]
+
+
 def correlation_length(residual: np.ndarray) -> int:
     """How many samples a series of residuals stays correlated: one more than the largest
     lag (up to a MIN_BATCHES-th of the series) at which its autocorrelation exceeds
@@ -227,12 +240,7 @@ def correlation_length(residual: np.ndarray) -> int:
     n = len(residual)
     if n < 2 * MIN_BATCHES:
         return 1
-    centred = residual - residual.mean()
-    spectrum = np.fft.rfft(centred, 2 * n)
-    autocovariance = np.fft.irfft(spectrum * np.conj(spectrum))[: n // MIN_BATCHES + 1]
-    if autocovariance[0] <= 0:
-        return 1
-    correlated = np.flatnonzero(np.abs(autocovariance[1:] / autocovariance[0]) > CORRELATED)
+    correlated = np.flatnonzero(np.abs(autocorrelation(residual, n // MIN_BATCHES)[1:]) > CORRELATED)
     return int(correlated[-1]) + 2 if len(correlated) else 1
 
 
