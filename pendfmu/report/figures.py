@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 
 from pendfmu.fitting.diagnostics import Binned, Diagnostics, summaries
 from pendfmu.fitting.result import FitResult
@@ -236,6 +237,7 @@ def _binned_panel(axis, binned: Binned, xlabel: str, signal: str, against: str) 
     axis.set_xlabel(xlabel, parse_math=False)
     axis.set_ylabel(_axis_label("residual", unit(signal)))
     axis.set_title(f"{signal}: residual {against}", fontsize="medium", parse_math=False)
+    _plain_ticks(axis)
     if not binned.centre:
         axis.text(0.5, 0.5, "too few samples to bin", transform=axis.transAxes, ha="center", color="grey")
     else:
@@ -281,8 +283,8 @@ def joint_figure(result: FitResult, combination: dict, halves: dict) -> Figure |
         return None
     figure = Figure(figsize=(6.4, 5.2), layout="constrained")
     axis = figure.add_subplot()
-    axis.fill(*np.exp(region), color=STICTION, alpha=0.25, lw=1, ec=STICTION, label="95 % joint region")
-    axis.plot([a.value], [b.value], "o", color=STICTION, ms=6, label="the fit's estimate")
+    axis.fill(*np.exp(region), fc=(0.12, 0.47, 0.71, 0.35), ec=STICTION, lw=1.5, zorder=3, label="95 % joint region")
+    axis.plot([a.value], [b.value], "o", color="black", ms=4, zorder=4, label="the fit's estimate")
     shown = [region] + _halves(axis, a.label, b.label, halves)
     _limits(axis, np.hstack(shown))
     _power_line(axis, combination)
@@ -325,6 +327,16 @@ def _limits(axis, logs: np.ndarray) -> None:
     for low, high, setter in ((*_padded(logs[0]), axis.set_xlim), (*_padded(logs[1]), axis.set_ylim)):
         setter(math.exp(low), math.exp(high))
     axis.set_autoscale_on(False)
+    _plain_ticks(axis)  # less than a decade: plain numbers, not 5.4 x 10^-4 at every tick
+
+
+def _plain_ticks(axis) -> None:
+    """Tick labels as plain numbers of three digits: no offset or power above the axis,
+    which would run into the panel's title."""
+    plain = FuncFormatter(lambda value, _: f"{value:.3g}")
+    for ticks in (axis.xaxis, axis.yaxis):
+        ticks.set_major_formatter(plain)
+        ticks.set_minor_formatter(plain)
 
 
 def _padded(logs: np.ndarray) -> tuple[float, float]:
@@ -344,5 +356,5 @@ def _power_line(axis, combination: dict) -> None:
     for level, style in ((combination["value"], "-"), *((end, "--") for end in combination["ci95"])):
         base = math.log(level) * np.array([p, q]) / norm
         line = base[:, None] + direction[:, None] * t
-        axis.plot(*np.exp(line), color=SIMULATED, lw=1.5 if style == "-" else 1, ls=style,
+        axis.plot(*np.exp(line), color=SIMULATED, lw=1.2 if style == "-" else 0.8, ls=style, zorder=2,
                   label=f"{combination['text']}" if style == "-" else None)
