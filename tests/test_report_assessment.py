@@ -16,12 +16,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pendfmu.fitting.result import Estimate, read_result
+from pendfmu.fitting.identification import fit
+from pendfmu.fitting.result import Estimate, kinds, read_result
 from pendfmu.fitting.statistics import Z95
 from pendfmu.fitting.validation import separately
 from pendfmu.report import write_report
 from pendfmu.report.content import JOINT_LEVEL, joint_region, log_spread
 from pendfmu.report.figures import joint_figure
+from pendfmu.virtual_rig import Trial, steps, write_experiments
 from test_diagnostics import long_fit
 from test_report import PNG_MAGIC, Page, estimate, experiment, pendulum_result, result
 
@@ -72,7 +74,7 @@ def test_the_verdict_stands_in_a_box_before_the_fit_with_its_evidence(written):
     box = text.index('<div class="verdict verdict-model-inadequate"')
     assert box < text.index("<h2>Fit</h2>")
     end = text.index("</div>", box)
-    assert "Model inadequate" in text[box:end] and "Residuals 41 times the sensor noise" in text[box:end]
+    assert "Model inadequate" in text[box:end] and "model-inadequate" in text[box:end]
     for line in fitted.assessment["evidence"]:
         assert f"<li>{html.escape(line)}</li>" in text[box:end]
     assert not page.errors and not page.open
@@ -185,3 +187,29 @@ def test_an_old_result_without_an_assessment_renders_without_a_box(tmp_path):
     assert "diagnostics-01.png" in page.images and "diagnostics-02.png" not in page.images
     assert "No diagnostics for long: the result file holds only the display envelope" in text
     assert not page.errors and not page.open
+
+
+def test_the_report_of_a_real_model_inadequate_fit_and_of_its_file(tmp_path):
+    """A current step whose converter leaves a 3 kHz ripple, fitted without the ripple term
+    (as test_adequacy does, long enough to be split in halves): the fit marks itself
+    model-inadequate, and its report, written from the fit and again from its file, shows
+    the verdict, the halves of both parameters and a residual that stays correlated."""
+    trial = Trial("rippled", "current", 0.024, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0)))
+    write_experiments(tmp_path, {"a_h": 0.05, "f_h": 3000.0}, seed=4, experiments=[trial])
+    fitted = fit("current", [tmp_path / "rippled.csv"], harmonic="off", seed=1, progress=False,
+                 uncertainty="jacobian")
+    assert fitted.assessment["verdict"] == "model-inadequate" and fitted.assessment["windows"]["halves"]
+    again = read_result(fitted.write_json(tmp_path / "result.json"))
+    pages = [Page(write_report(r, tmp_path / name).read_text(encoding="utf-8"))
+             for r, name in ((fitted, "report"), (again, "again"))]
+    for page in pages:
+        assert "diagnostics-01.png" in page.images
+        header = next(r for r in page.rows if r and r[0] == "parameter" and "direction" in r)
+        for name in ("T_i", "dIdt_max"):  # beyond the limit as the report sees it: as the fit flagged it
+            row = next(r for r in page.rows if r and r[0] == name and len(r) == len(header))
+            marked = "model-inadequate" in kinds(fitted.estimates[name].flags)
+            assert row[header.index("beyond the limit")] == ("yes" if marked else "no")
+    rows = [next(r for r in page.rows if r[:2] == ["rippled", "I"] and len(r) == 8) for page in pages]
+    assert rows[0] == rows[1]  # the file's stored diagnostics are the fit's
+    length = int(rows[0][4].lstrip("≥ "))
+    assert length > 100  # the ripple keeps the residual correlated (white noise: 1)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from pendfmu.fitting.diagnostics import MIN_SAMPLES, summaries, whole
 from pendfmu.fitting.result import FitResult
 from pendfmu.fitting.validation import MIN_HALF, STRICT, WHICH
-from pendfmu.report.content import assessments, beyond_the_limit, finite
+from pendfmu.report.content import assessments, beyond_the_limit
 from pendfmu.report.figures import Picture
 from pendfmu.report.markup import DASH, _cell, _figures, _section, _table, _text, interval, number
 
@@ -52,14 +52,10 @@ def verdict_box(result: FitResult) -> str:
     worst = (result.assessment or {}).get("verdict") or next(iter(found.values()))["verdict"]
     parts = [f'<p class="title"><strong>Verdict: {_text(TITLE.get(worst, worst))}</strong> '
              f'<code>({_text(worst)})</code></p>']
-    for stage, assessment in found.items():
-        spread = assessment.get("spread")
-        level = f"residuals {number(spread, 3)} times the sensor noise" if finite(spread) else ""
-        lead = f"Stage {_text(stage)}: {_text(assessment['verdict'])}" if stage != result.stage else ""
-        lead = ", ".join(part for part in (lead, level) if part)
+    for stage, assessment in found.items():  # the evidence's first line says how far above the noise
+        lead = f"Stage {_text(stage)}: {_text(assessment['verdict'])}. " if stage != result.stage else ""
         items = "".join(f"<li>{_text(line)}</li>" for line in assessment.get("evidence") or [])
-        parts.append(f"<p>{lead[:1].upper() + lead[1:]}{'. ' if lead else ''}Evidence:</p>"
-                     + (f"<ul>{items}</ul>" if items else ""))
+        parts.append(f"<p>{lead}Evidence:</p>" + (f"<ul>{items}</ul>" if items else ""))
     parts.append(f"<p>{_text(MEANING.get(worst, ''))}</p>")
     return f'<div class="verdict verdict-{_text(worst)}" role="status">\n' + "\n".join(parts) + "\n</div>"
 
