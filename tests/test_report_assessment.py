@@ -213,3 +213,11 @@ def test_the_report_of_a_real_model_inadequate_fit_and_of_its_file(tmp_path):
     assert rows[0] == rows[1]  # the file's stored diagnostics are the fit's
     length = int(rows[0][4].lstrip("≥ "))
     assert length > 100  # the ripple keeps the residual correlated (white noise: 1)
+
+
+def test_predicted_recordings_are_diagnosed_after_the_fitted_ones(tmp_path):
+    fitted = replace(pendulum_result(), predicted=[experiment("coupled", "phi", 2 * math.pi / 1024)])
+    index = write_report(fitted, tmp_path / "report")
+    page = Page(index.read_text(encoding="utf-8"))
+    assert [s for s in page.images if s.startswith("diagnostics-")] == ["diagnostics-01.png", "diagnostics-02.png"]
+    assert any(r[:2] == ["coupled (predicted, not fitted)", "phi"] for r in page.rows)

@@ -9,10 +9,10 @@ sections, rather than an empty one.
 
 from __future__ import annotations
 
-from pendfmu.fitting.diagnostics import MIN_SAMPLES, summaries, whole
+from pendfmu.fitting.diagnostics import MIN_SAMPLES, Diagnostics, summaries, whole
 from pendfmu.fitting.result import FitResult
 from pendfmu.fitting.validation import MIN_HALF, STRICT, WHICH
-from pendfmu.report.content import assessments, beyond_the_limit
+from pendfmu.report.content import assessments, beyond_the_limit, residual_fits
 from pendfmu.report.figures import Picture
 from pendfmu.report.markup import DASH, _cell, _figures, _section, _table, _text, interval, number
 
@@ -85,21 +85,23 @@ def _windows(assessment: dict) -> str:
     if "halves" not in windows:
         return f'<p class="muted">{_text(windows.get("note", "no validation"))}</p>'
     beyond = beyond_the_limit(assessment)
-    rows = []
     early, late = (windows["halves"].get(which) or {} for which in WHICH)
-    for name in early:
-        moved = (windows.get("parameters") or {}).get(name)
-        rows.append(('<tr class="flagged">' if name in beyond else "<tr>") + _cell(f"<code>{_text(name)}</code>", "name")
-                    + _half(early.get(name)) + _half(late.get(name))
-                    + _cell(number(moved["ratio"], 3) if moved else "not compared", "num")
-                    + _cell(_text(moved["direction"]) if moved else DASH)
-                    + _cell("yes" if name in beyond else ("no" if moved else DASH)) + "</tr>")
+    rows = [_moved_row(name, early.get(name), late.get(name), (windows.get("parameters") or {}).get(name),
+                       name in beyond) for name in early]
     recordings = windows.get("recordings") or []
     facts = (f'<p class="muted">{_text(windows.get("method", ""))}; {len(recordings)} recording'
              f'{"" if len(recordings) == 1 else "s"} split'
              + (f", {number(windows['seconds'], 3)} s" if "seconds" in windows else "") + ".</p>")
     return facts + _table(("parameter", "early halves", "late halves", "moved [combined intervals]", "direction",
                            "beyond the limit"), rows, LIMIT_CAPTION)
+
+
+def _moved_row(name: str, early, late, moved: dict | None, beyond: bool) -> str:
+    """One parameter's row: both halves, how far it moved, which way, and whether beyond the limit."""
+    return (('<tr class="flagged">' if beyond else "<tr>") + _cell(f"<code>{_text(name)}</code>", "name")
+            + _half(early) + _half(late) + _cell(number(moved["ratio"], 3) if moved else "not compared", "num")
+            + _cell(_text(moved["direction"]) if moved else DASH)
+            + _cell("yes" if beyond else ("no" if moved else DASH)) + "</tr>")
 
 
 def _half(row) -> str:
@@ -123,7 +125,8 @@ def joint_section(pictures: list[Picture]) -> str:
 
 def diagnostics_section(result: FitResult, pictures: list[Picture | None]) -> str:
     """The residual diagnostics: a table of the numbers, and a figure per recording."""
-    if not result.experiments:
+    fits = residual_fits(result)
+    if not fits:
         return ""
     intro = ("<p>The residual (recorded − simulated) of a model that misses nothing is the sensor's noise: its "
              "autocorrelation stays within the white-noise band (±1.96/√N) beyond lag 0, and its mean is zero at "
@@ -132,22 +135,28 @@ def diagnostics_section(result: FitResult, pictures: list[Picture | None]) -> st
              "four of them long) is a model error, and where its mean follows the speed (air drag, a viscous "
              "term) or the amplitude (amplitude-dependent losses, a stiffness, a sensor gain) it names the term. "
              "Computed from every sample (a result file stores them beside the recording's envelope).</p>")
-    rows = []
-    for fit in result.experiments:
-        for signal, d in summaries(fit).items():
-            rows.append("<tr>" + _cell(_text(fit.name)) + _cell(f"<code>{_text(signal)}</code>")
-                        + _cell(_text(d.samples), "num") + _cell(number(d.acf[1] if len(d.acf) > 1 else None, 4), "num")
-                        + _cell(("≥ " if d.correlation_length > d.lags[-1] else "") + _text(d.correlation_length), "num")
-                        + _cell(number(d.correlation_length * d.step, 3), "num") + _cell(number(d.band, 2), "num")
-                        + _cell(_text(d.speed_from)) + "</tr>")
+    rows = [_diagnostics_row(name, signal, d) for fit, name in fits for signal, d in summaries(fit).items()]
     table = _table(("recording", "signal", "samples", "lag-1 autocorrelation", "correlation length [samples]",
                     "correlation length [s]", "white-noise band ±", "speed from"), rows) if rows else ""
-    missing = [fit for fit, picture in zip(result.experiments, pictures) if picture is None]
+    missing = [fit for (fit, _), picture in zip(fits, pictures) if picture is None]
+    return _section("Residual diagnostics", intro + table + _without(missing) + _figures([p for p in pictures if p]))
+
+
+def _diagnostics_row(name: str, signal: str, d: Diagnostics) -> str:
+    """One signal's numbers; a correlation length that reaches the last lag looked at is "at least"."""
+    length = ("≥ " if d.correlation_length > d.lags[-1] else "") + _text(d.correlation_length)
+    return ("<tr>" + _cell(_text(name)) + _cell(f"<code>{_text(signal)}</code>") + _cell(_text(d.samples), "num")
+            + _cell(number(d.acf[1] if len(d.acf) > 1 else None, 4), "num") + _cell(length, "num")
+            + _cell(number(d.correlation_length * d.step, 3), "num") + _cell(number(d.band, 2), "num")
+            + _cell(_text(d.speed_from)) + "</tr>")
+
+
+def _without(missing: list) -> str:
+    """Why a recording has no diagnostics: an older file's envelope, or too few residuals."""
     enveloped = ", ".join(fit.name for fit in missing if not whole(fit))
     short = ", ".join(fit.name for fit in missing if whole(fit))
     note = (f'<p class="muted">No diagnostics for {_text(enveloped)}: the result file holds only the display envelope '
             f"of these recordings, without their diagnostics (written by an older pendfmu); fit again to see "
             f"them.</p>" if enveloped else "")
-    note += (f'<p class="muted">No diagnostics for {_text(short)}: fewer than {MIN_SAMPLES} samples with a '
-             f"residual.</p>" if short else "")
-    return _section("Residual diagnostics", intro + table + note + _figures([p for p in pictures if p]))
+    return note + (f'<p class="muted">No diagnostics for {_text(short)}: fewer than {MIN_SAMPLES} samples with a '
+                   f"residual.</p>" if short else "")

@@ -242,6 +242,14 @@ def friction_curve(law: Law) -> tuple[np.ndarray, np.ndarray]:
     return speeds, law.sliding(speeds)
 
 
+def residual_fits(result: FitResult) -> list[tuple[ExperimentFit, str]]:
+    """The recordings whose residuals the report diagnoses, each with how to name it: the
+    fitted ones, then those only predicted with the result (fit all's), which say the more
+    for not having been fitted."""
+    return [(fit, fit.name) for fit in result.experiments] + [(fit, f"{fit.name} (predicted, not fitted)")
+                                                             for fit in result.predicted]
+
+
 def assessments(result: FitResult) -> dict[str, dict]:
     """The result's verdicts by stage (fitting/adequacy.py): a stage's own, or, for a
     sequence of stages, each stage's; empty for a result written before there were any."""

@@ -24,7 +24,7 @@ from pendfmu.fitting.result import FitResult
 from pendfmu.fitting.statistics import CORRELATED
 from pendfmu.friction import Joint, Law
 from pendfmu.report.content import (assessments, bounded_only, fitted_joints, fitted_law, fitted_values,
-                                    friction_curve, interval_text, joint_region, unit)
+                                    friction_curve, interval_text, joint_region, residual_fits, unit)
 
 SIMULATED = "#d62728"
 STICTION = "#1f77b4"
@@ -169,26 +169,26 @@ def _annotate(axis, joint: Joint, law: Law, v_max: float) -> None:
 
 
 def write_diagnostics_figures(result: FitResult, directory: Path) -> list[Picture | None]:
-    """Per fitted recording (in result.experiments' order), the PNG of its residual
-    diagnostics (fitting/diagnostics.py), or None where the result holds none (an older
-    file's long recording, of which only the display envelope is stored). A PNG is the
-    same few tens of kilobytes whatever the recording's length: it draws the summary,
-    not the samples."""
+    """Per recording of content.residual_fits, the PNG of its residual diagnostics
+    (fitting/diagnostics.py), or None where the result holds none (an older file's long
+    recording, of which only the display envelope is stored). A PNG is the same 100 to
+    200 kB whatever the recording's length: it draws the summary, not the samples."""
     pictures: list[Picture | None] = []
-    for number, fit in enumerate(result.experiments, 1):
+    for number, (fit, name) in enumerate(residual_fits(result), 1):
         found = summaries(fit)
         if not found:
             pictures.append(None)
             continue
         file = f"diagnostics-{number:02d}.png"
         _save(diagnostics_figure(found), directory / file)
-        pictures.append(Picture(file, f"residual diagnostics of {fit.name}", _diagnostics_caption(found)))
+        pictures.append(Picture(file, f"residual diagnostics of {name}", _diagnostics_caption(found)))
     return pictures
 
 
 def _diagnostics_caption(found: dict[str, Diagnostics]) -> str:
-    return "residual = recorded − simulated; " + "; ".join(f"{signal}: {d.samples} samples, correlation length {d.correlation_length} "
-                     f"({d.correlation_length * d.step:.3g} s), speed from {d.speed_from}" for signal, d in found.items())
+    each = [f"{signal}: {d.samples} samples, correlation length {d.correlation_length} "
+            f"({d.correlation_length * d.step:.3g} s), speed from {d.speed_from}" for signal, d in found.items()]
+    return "residual = recorded − simulated; " + "; ".join(each)
 
 
 def diagnostics_figure(found: dict[str, Diagnostics]) -> Figure:
