@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from pendfmu.fitting.diagnostics import (BINS, MIN_COUNT, Diagnostics, binned_means, diagnose, rate_of, summaries,
-                                         whole)
-from pendfmu.fitting.result import ExperimentFit, read_result
+from pendfmu.fitting.diagnostics import BINS, MIN_COUNT, Diagnostics, binned_means, diagnose, rate_of
+from pendfmu.fitting.result import ExperimentFit, diagnostics_of, read_result, whole
 from pendfmu.fitting.statistics import correlation_length
+from pendfmu.report.content import white_noise_band
 from test_report import result
 
 
@@ -36,10 +36,11 @@ def test_white_noise_stays_within_its_band():
     found = residual_of(np.random.default_rng(1).normal(size=40_000))
     acf = np.asarray(found.acf)
     assert found.lags[0] == 0 and acf[0] == pytest.approx(1.0)
-    assert found.band == pytest.approx(1.959963984540054 / math.sqrt(40_000))
-    outside = np.mean(np.abs(acf[1:]) > found.band)
+    band = white_noise_band(found.samples)
+    assert band == pytest.approx(1.959963984540054 / math.sqrt(40_000))
+    outside = np.mean(np.abs(acf[1:]) > band)
     assert outside <= 0.10  # 5 % expected; 10 % is beyond 3 binomial deviations for 210 lags
-    assert np.max(np.abs(acf[1:])) < 2.2 * found.band
+    assert np.max(np.abs(acf[1:])) < 2.2 * band
     assert found.correlation_length == 1
 
 
@@ -112,7 +113,7 @@ def test_a_recorded_rate_is_the_speed_the_residual_is_binned_by():
     time = np.arange(0.0, 5.0, 1e-3)
     phi, w = np.sin(3 * time), 3 * np.cos(3 * time)
     fit = ExperimentFit("run", time, {"phi": phi, "w": w}, {"phi": phi - 0.01 * w, "w": w})
-    found = summaries(fit)
+    found = diagnostics_of(fit)
     assert found["phi"].speed_from == "w (recorded)"
     assert np.asarray(found["phi"].speed.mean) == pytest.approx(0.01 * np.asarray(found["phi"].speed.centre))
 
@@ -127,10 +128,10 @@ def long_fit(samples: int = 30_000) -> ExperimentFit:
 def test_a_long_recordings_diagnostics_survive_its_envelope_in_the_result_file(tmp_path):
     fit = long_fit()
     fitted = result("pendulum", [], [fit])
-    before = summaries(fit)["phi"]
+    before = diagnostics_of(fit)["phi"]
     back = read_result(fitted.write_json(tmp_path / "result.json")).experiments[0]
     assert not whole(back) and len(back.time) < len(fit.time)  # the file holds the envelope
-    assert summaries(back)["phi"] == before  # computed from every sample before it was written
+    assert diagnostics_of(back)["phi"] == before  # computed from every sample before it was written
     assert before.samples == 30_000
     back.diagnostics = {}  # an older file: the envelope, but no stored diagnostics
-    assert summaries(back) == {}
+    assert diagnostics_of(back) == {}

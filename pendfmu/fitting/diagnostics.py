@@ -2,9 +2,9 @@
 residuals are white noise, and whether they follow the amplitude or the speed.
 
 A model that misses a term leaves a residual with a structure: it stays correlated over
-many samples (the autocorrelation stands outside the white-noise band +-Z95/sqrt(N) long
-after lag 0; the correlation length is statistics.correlation_length's, the one the
-sandwich intervals use), and its mean changes with the state that drives the missing
+many samples (the autocorrelation stands outside the white-noise band +-1.96/sqrt(N) long
+after lag 0; the correlation length is the one the sandwich intervals' batches follow,
+statistics.sandwich_covariance), and its mean changes with the state that drives the missing
 term (air drag with the speed squared, amplitude-dependent losses with the angle). So,
 per signal: the autocorrelation, and the residual's mean in bins of the recorded value
 (amplitude) and of its rate (speed: the recording's own rate signal where the result
@@ -17,25 +17,26 @@ a long recording only as its display envelope (envelope.py): those samples are e
 bucket's extremes, unevenly spaced, from which neither an autocorrelation nor an unbiased
 bin mean follows. So the summary is computed from every sample when the result is written
 and stored beside the envelope (result.experiment_dict, as the RMS is); a result read back
-uses the stored summary (`summaries`), and an older file without one has diagnostics only
-for the recordings it holds whole. The summary is small whatever the recording's length:
+uses the stored summary (result.diagnostics_of), and an older file without one has
+diagnostics only for the recordings it holds whole. The summary is small whatever the recording's length:
 at most ACF_LAGS + ACF_POINTS lags and 2 * BINS bins per signal.
+
+The autocorrelation and the correlation length have their one home here, not in
+statistics.py, which uses them for the sandwich intervals' batches: the result file
+(result.py) computes these diagnostics, and statistics imports result.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING
+from collections.abc import Mapping
 
 import numpy as np
 
 from pendfmu.components import COMPONENTS
-from pendfmu.fitting.statistics import MIN_BATCHES, Z95, autocorrelation, correlation_length
 
-if TYPE_CHECKING:
-    from pendfmu.fitting.result import ExperimentFit
-
+CORRELATED = 0.1  # |autocorrelation| above which residuals count as correlated at that lag
+MIN_BATCHES = 8  # a series holds this many sandwich batches at least (the correlation length looks this far)
 ACF_LAGS = 60  # every lag up to this one is kept
 ACF_POINTS = 150  # beyond it, this many lags spread evenly up to the longest
 BINS = 20  # equal-width bins over the range of the amplitude, and of the speed
@@ -65,8 +66,8 @@ class Diagnostics:
         lags: the lags (samples) at which the autocorrelation is kept: every one up to
             ACF_LAGS, then ACF_POINTS spread evenly up to a MIN_BATCHES-th of the series
             (as far as correlation_length looks).
-        acf: the autocorrelation at those lags (statistics.autocorrelation).
-        correlation_length: statistics.correlation_length of the residuals.
+        acf: the autocorrelation at those lags (`autocorrelation`).
+        correlation_length: `correlation_length` of the residuals.
         amplitude: the residual's mean in bins of the recorded signal.
         speed: the residual's mean in bins of its rate.
         speed_from: where the rate came from (a recorded rate signal, or the central difference).
@@ -81,17 +82,37 @@ class Diagnostics:
     speed: Binned
     speed_from: str
 
-    @property
-    def band(self) -> float:
-        """Half-width of the 95 % band an autocorrelation of white noise stays within."""
-        return Z95 / math.sqrt(self.samples)
-
     def to_dict(self) -> dict:
         return asdict(self)
 
     @classmethod
     def from_dict(cls, entry: dict) -> Diagnostics:
         return cls(**{**entry, "amplitude": Binned(**entry["amplitude"]), "speed": Binned(**entry["speed"])})
+
+
+def autocorrelation(residual: np.ndarray, max_lag: int) -> np.ndarray:
+    """The sample autocorrelation of a series at lags 0..max_lag: its autocovariance (the
+    sum of products over the overlap, divided by the series' length for every lag, which
+    keeps the estimate positive definite) over its variance. Zeros for a constant series."""
+    n = len(residual)
+    centred = residual - residual.mean()
+    spectrum = np.fft.rfft(centred, 2 * n)
+    autocovariance = np.fft.irfft(spectrum * np.conj(spectrum), 2 * n)[: min(max_lag, n - 1) + 1]
+    if autocovariance[0] <= 0:
+        return np.zeros_like(autocovariance)
+    return autocovariance / autocovariance[0]
+
+
+def correlation_length(residual: np.ndarray) -> int:
+    """How many samples a series of residuals stays correlated: one more than the largest
+    lag (up to a MIN_BATCHES-th of the series) at which its autocorrelation exceeds
+    CORRELATED. 1 for independent residuals; a model error that comes and goes with the
+    swing gives about a period's worth."""
+    n = len(residual)
+    if n < 2 * MIN_BATCHES:
+        return 1
+    correlated = np.flatnonzero(np.abs(autocorrelation(residual, n // MIN_BATCHES)[1:]) > CORRELATED)
+    return int(correlated[-1]) + 2 if len(correlated) else 1
 
 
 def acf_lags(longest: int) -> np.ndarray:
@@ -151,22 +172,14 @@ def rate_of(signal: str) -> str | None:
     return None
 
 
-def whole(fit: ExperimentFit) -> bool:
-    """Whether a recording's arrays hold every sample (not a file's display envelope)."""
-    return fit.samples is None or len(fit.time) >= fit.samples
-
-
-def summaries(fit: ExperimentFit) -> dict[str, Diagnostics]:
-    """Each recorded signal's diagnostics: the ones stored with the result if it holds
-    them (read back from a file), else computed from the arrays if they hold every sample;
-    a signal of an envelope without a stored summary (an older file) has none."""
-    if fit.diagnostics:
-        return {name: Diagnostics.from_dict(entry) for name, entry in fit.diagnostics.items() if entry}
-    if not whole(fit):
-        return {}
+def of_signals(time: np.ndarray, recorded: Mapping[str, np.ndarray], simulated: Mapping[str, np.ndarray]
+               ) -> dict[str, Diagnostics]:
+    """Each recorded signal's diagnostics from every sample, binned by the recording's own
+    rate of it where it holds one (w for phi), else by its central difference; a signal
+    with too few finite residuals has none."""
     found = {}
-    for name, recorded in fit.recorded.items():
+    for name, values in recorded.items():
         rate = rate_of(name)
-        own = fit.recorded.get(rate) if rate else None
-        found[name] = diagnose(fit.time, recorded, fit.simulated[name], own, f"{rate} (recorded)" if rate else "")
+        own = recorded.get(rate) if rate else None
+        found[name] = diagnose(time, values, simulated[name], own, f"{rate} (recorded)" if rate else "")
     return {name: d for name, d in found.items() if d is not None}

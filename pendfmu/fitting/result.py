@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendfmu.fitting.diagnostics import Diagnostics, of_signals
 from pendfmu.fitting.envelope import envelope_indices
 from pendfmu.fitting.labels import is_own, label
 
@@ -173,14 +174,26 @@ def experiment_dict(fit: ExperimentFit) -> dict:
     reduced = fit.samples is not None and len(fit.time) < fit.samples  # read back: already its envelope
     index = envelope_indices(arrays) if arrays and not reduced else np.arange(len(fit.time))
     rms = {s: (fit.rms[s] if s in fit.rms else _rms(r)) for s, r in zip(signals, residuals)}
-    from pendfmu.fitting.diagnostics import summaries  # it reads ExperimentFit: imported when used
-
     return {"name": fit.name, "samples": fit.samples or len(fit.time), "time": _json_array(fit.time, index),
             "recorded": {s: _json_array(fit.recorded[s], index) for s in signals},
             "simulated": {s: _json_array(fit.simulated[s], index) for s in signals},
             "resolution": dict(fit.resolution), "scale": dict(fit.scale), "rms": rms,
             "values": dict(fit.values), "overrides": dict(fit.overrides),
-            "diagnostics": {s: d.to_dict() for s, d in summaries(fit).items()}}
+            "diagnostics": {s: d.to_dict() for s, d in diagnostics_of(fit).items()}}
+
+
+def whole(fit: ExperimentFit) -> bool:
+    """Whether a recording's arrays hold every sample (not a file's display envelope)."""
+    return fit.samples is None or len(fit.time) >= fit.samples
+
+
+def diagnostics_of(fit: ExperimentFit) -> dict[str, Diagnostics]:
+    """Each recorded signal's residual diagnostics (diagnostics.py): the ones stored with a
+    result read back from its file, else computed from the arrays if they hold every
+    sample; none for an envelope without stored ones (a file of an older pendfmu)."""
+    if fit.diagnostics:
+        return {name: Diagnostics.from_dict(entry) for name, entry in fit.diagnostics.items() if entry}
+    return of_signals(fit.time, fit.recorded, fit.simulated) if whole(fit) else {}
 
 
 def _rms(residual: np.ndarray) -> float | None:

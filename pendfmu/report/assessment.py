@@ -9,10 +9,10 @@ sections, rather than an empty one.
 
 from __future__ import annotations
 
-from pendfmu.fitting.diagnostics import MIN_SAMPLES, Diagnostics, summaries, whole
-from pendfmu.fitting.result import FitResult
+from pendfmu.fitting.diagnostics import MIN_SAMPLES, Diagnostics
+from pendfmu.fitting.result import FitResult, diagnostics_of, whole
 from pendfmu.fitting.validation import MIN_HALF, STRICT, WHICH
-from pendfmu.report.content import assessments, beyond_the_limit, residual_fits
+from pendfmu.report.content import assessments, beyond_the_limit, residual_fits, white_noise_band
 from pendfmu.report.figures import Picture
 from pendfmu.report.markup import DASH, _cell, _figures, _section, _table, _text, interval, number
 
@@ -135,7 +135,7 @@ def diagnostics_section(result: FitResult, pictures: list[Picture | None]) -> st
              "four of them long) is a model error, and where its mean follows the speed (air drag, a viscous "
              "term) or the amplitude (amplitude-dependent losses, a stiffness, a sensor gain) it names the term. "
              "Computed from every sample (a result file stores them beside the recording's envelope).</p>")
-    rows = [_diagnostics_row(name, signal, d) for fit, name in fits for signal, d in summaries(fit).items()]
+    rows = [_diagnostics_row(name, signal, d) for fit, name in fits for signal, d in diagnostics_of(fit).items()]
     table = _table(("recording", "signal", "samples", "lag-1 autocorrelation", "correlation length [samples]",
                     "correlation length [s]", "white-noise band ±", "speed from"), rows) if rows else ""
     missing = [fit for (fit, _), picture in zip(fits, pictures) if picture is None]
@@ -147,8 +147,8 @@ def _diagnostics_row(name: str, signal: str, d: Diagnostics) -> str:
     length = ("≥ " if d.correlation_length > d.lags[-1] else "") + _text(d.correlation_length)
     return ("<tr>" + _cell(_text(name)) + _cell(f"<code>{_text(signal)}</code>") + _cell(_text(d.samples), "num")
             + _cell(number(d.acf[1] if len(d.acf) > 1 else None, 4), "num") + _cell(length, "num")
-            + _cell(number(d.correlation_length * d.step, 3), "num") + _cell(number(d.band, 2), "num")
-            + _cell(_text(d.speed_from)) + "</tr>")
+            + _cell(number(d.correlation_length * d.step, 3), "num")
+            + _cell(number(white_noise_band(d.samples), 2), "num") + _cell(_text(d.speed_from)) + "</tr>")
 
 
 def _without(missing: list) -> str:

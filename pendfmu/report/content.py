@@ -269,6 +269,12 @@ def beyond_the_limit(assessment: dict) -> dict[str, dict]:
     return moving(assessment.get("windows") or {}, adequate)
 
 
+def white_noise_band(samples: int) -> float:
+    """Half-width of the 95 % band the autocorrelation of `samples` values of white noise
+    stays within at every lag but 0 (Bartlett: each is about normal with variance 1/N)."""
+    return Z95 / math.sqrt(samples)
+
+
 JOINT_LEVEL = math.sqrt(-2.0 * math.log(0.05))
 """The radius, in standard deviations, of a two-dimensional normal's 95 % region (the
 chi-square quantile of two degrees of freedom, sqrt(5.99))."""

@@ -19,12 +19,12 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter
 
-from pendfmu.fitting.diagnostics import Binned, Diagnostics, summaries
-from pendfmu.fitting.result import FitResult
-from pendfmu.fitting.statistics import CORRELATED
+from pendfmu.fitting.diagnostics import CORRELATED, Binned, Diagnostics
+from pendfmu.fitting.result import FitResult, diagnostics_of
 from pendfmu.friction import Joint, Law
 from pendfmu.report.content import (assessments, bounded_only, fitted_joints, fitted_law, fitted_values,
-                                    friction_curve, interval_text, joint_region, residual_fits, unit)
+                                    friction_curve, interval_text, joint_region, residual_fits, unit,
+                                    white_noise_band)
 
 SIMULATED = "#d62728"
 STICTION = "#1f77b4"
@@ -175,7 +175,7 @@ def write_diagnostics_figures(result: FitResult, directory: Path) -> list[Pictur
     200 kB whatever the recording's length: it draws the summary, not the samples."""
     pictures: list[Picture | None] = []
     for number, (fit, name) in enumerate(residual_fits(result), 1):
-        found = summaries(fit)
+        found = diagnostics_of(fit)
         if not found:
             pictures.append(None)
             continue
@@ -212,7 +212,8 @@ def diagnostics_figure(found: dict[str, Diagnostics]) -> Figure:
 
 def _acf_panel(axis, signal: str, d: Diagnostics) -> None:
     lags = np.asarray(d.lags) * d.step
-    axis.axhspan(-d.band, d.band, color="grey", alpha=0.25, lw=0, label=f"white noise 95 %: ±{d.band:.2g}")
+    band = white_noise_band(d.samples)
+    axis.axhspan(-band, band, color="grey", alpha=0.25, lw=0, label=f"white noise 95 %: ±{band:.2g}")
     for sign in (1, -1):
         axis.axhline(sign * CORRELATED, color="grey", lw=0.8, ls=":",
                      label=f"±{CORRELATED:g}: counts as correlated" if sign > 0 else None)
