@@ -82,8 +82,8 @@ class ExperimentFit:
     # display envelope (a result read back from its file): the envelope's own RMS is not it
     rms: dict[str, float] = field(default_factory=dict)
     samples: int | None = None  # the recording's samples, when the arrays hold fewer
-    # per signal the residual diagnostics of every sample (diagnostics.py), as a result file
-    # stores them beside the envelope; empty while the arrays hold every sample
+    # per signal the residual diagnostics of every sample (diagnostics.py) as a result file
+    # stores them beside the envelope (read back); empty for a fit's own, whose arrays are whole
     diagnostics: dict[str, dict] = field(default_factory=dict)
 
 

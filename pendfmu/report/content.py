@@ -1,4 +1,5 @@
-"""What a report says, independent of how it is drawn: units, error measures, joints.
+"""What a report says, independent of how it is drawn: units, error measures, joints, the
+verdicts and the limit of their validation, the joint region of a pair determined together.
 
 The figures and the HTML page both need the unit of a name, the per-recording error and
 which friction curves a result determines (and the points they are drawn through);

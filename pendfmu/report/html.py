@@ -11,11 +11,11 @@ place, by markup.py's `_text`; markup is only ever built from escaped pieces.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from pendfmu.report.content import (COST_DEFINITION, SignalError, bounded_only, component_of, description, finite,
                                     fitted_samples, ran_with, recording_values, relative_stderr, scaled_rms,
                                     signal_errors, unit)
-from collections.abc import Sequence
-
 from pendfmu.report.assessment import STYLE as VERDICT_STYLE
 from pendfmu.report.assessment import diagnostics_section, joint_section, validation_section, verdict_box
 from pendfmu.report.figures import Picture
