@@ -34,8 +34,8 @@ CART_TRUTH = {"k_fwc": 26.0, "F_Kc": 7.0, "F_Sc": 10.5, "eta": 0.42}
 
 
 def result_without_time(path):
-    """A result file's content without its timings (fit.seconds and fit.uncertainty.seconds)
-    and the date, command line and workers of its provenance, the only fields that differ
+    """A result file's content without its timings (fit.seconds, fit.uncertainty.seconds and
+    the validation's fit.assessment.windows.seconds) and the date, command line and workers of its provenance, the only fields that differ
     between runs (the command line names the run's own output file; the workers and the Dask
     scheduler say where the work ran, which changes no number)."""
     import json
@@ -44,6 +44,10 @@ def result_without_time(path):
     document["fit"].pop("seconds")
     if isinstance(document["fit"].get("uncertainty"), dict):
         document["fit"]["uncertainty"].pop("seconds", None)
+    assessment = document["fit"].get("assessment") or {}
+    for verdict in [assessment, *(assessment.get("stages") or {}).values()]:  # fit all's: one per stage
+        if isinstance(verdict.get("windows"), dict):
+            verdict["windows"].pop("seconds", None)
     provenance = document.get("provenance", {})
     for key in ("date", "command"):
         provenance.pop(key, None)

@@ -281,7 +281,7 @@ def test_report_of_a_real_current_fit(tmp_path):
     assert time.perf_counter() - started < 20
     text = index.read_text(encoding="utf-8")
     page = Page(text)
-    assert page.images == [] and page.plots == ["fit-01"]
+    assert page.images == ["diagnostics-01.png"] and page.plots == ["fit-01"]  # no friction curve
     assert fitted.experiments[0].resolution == {"I": pytest.approx(20 / 4096)}
     header = next(r for r in page.rows if r and r[0] == "recording")
     row = next(r for r in page.rows if r[:2] == ["current", "I"])

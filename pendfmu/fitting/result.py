@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendfmu.fitting.diagnostics import Diagnostics, of_signals
 from pendfmu.fitting.envelope import envelope_indices
 from pendfmu.fitting.labels import is_own, label
 
@@ -81,6 +82,9 @@ class ExperimentFit:
     # display envelope (a result read back from its file): the envelope's own RMS is not it
     rms: dict[str, float] = field(default_factory=dict)
     samples: int | None = None  # the recording's samples, when the arrays hold fewer
+    # per signal the residual diagnostics of every sample (diagnostics.py) as a result file
+    # stores them beside the envelope (read back); empty for a fit's own, whose arrays are whole
+    diagnostics: dict[str, dict] = field(default_factory=dict)
 
 
 @dataclass
@@ -161,7 +165,8 @@ class FitResult:
 
 def experiment_dict(fit: ExperimentFit) -> dict:
     """One recording's fit for the result file: long signals reduced to their envelope,
-    with the RMS error of every sample kept beside it; a missing sample (NaN) is null."""
+    with the RMS error and the residual diagnostics (diagnostics.py) of every sample kept
+    beside it; a missing sample (NaN) is null."""
     signals = list(fit.recorded)
     residuals = [np.asarray(fit.recorded[s], float) - np.asarray(fit.simulated[s], float) for s in signals]
     arrays = [np.asarray(fit.recorded[s], float) for s in signals] + [np.asarray(fit.simulated[s], float)
@@ -173,7 +178,22 @@ def experiment_dict(fit: ExperimentFit) -> dict:
             "recorded": {s: _json_array(fit.recorded[s], index) for s in signals},
             "simulated": {s: _json_array(fit.simulated[s], index) for s in signals},
             "resolution": dict(fit.resolution), "scale": dict(fit.scale), "rms": rms,
-            "values": dict(fit.values), "overrides": dict(fit.overrides)}
+            "values": dict(fit.values), "overrides": dict(fit.overrides),
+            "diagnostics": {s: d.to_dict() for s, d in diagnostics_of(fit).items()}}
+
+
+def whole(fit: ExperimentFit) -> bool:
+    """Whether a recording's arrays hold every sample (not a file's display envelope)."""
+    return fit.samples is None or len(fit.time) >= fit.samples
+
+
+def diagnostics_of(fit: ExperimentFit) -> dict[str, Diagnostics]:
+    """Each recorded signal's residual diagnostics (diagnostics.py): the ones stored with a
+    result read back from its file, else computed from the arrays if they hold every
+    sample; none for an envelope without stored ones (a file of an older pendfmu)."""
+    if fit.diagnostics:
+        return {name: Diagnostics.from_dict(entry) for name, entry in fit.diagnostics.items() if entry}
+    return of_signals(fit.time, fit.recorded, fit.simulated) if whole(fit) else {}
 
 
 def _rms(residual: np.ndarray) -> float | None:
@@ -194,7 +214,8 @@ def _experiment_from(entry: dict) -> ExperimentFit:
         entry["name"], _array(entry["time"]), {s: _array(v) for s, v in entry["recorded"].items()},
         {s: _array(v) for s, v in entry["simulated"].items()}, dict(entry.get("resolution", {})),
         dict(entry.get("scale", {})), dict(entry.get("values", {})), dict(entry.get("overrides", {})),
-        {s: v for s, v in entry.get("rms", {}).items() if v is not None}, entry.get("samples"))
+        {s: v for s, v in entry.get("rms", {}).items() if v is not None}, entry.get("samples"),
+        dict(entry.get("diagnostics", {})))
 
 
 def read_result(path: str | Path) -> FitResult:

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from pendfmu.fitting.diagnostics import MIN_BATCHES, correlation_length
 from pendfmu.fitting.residuals import FreeParameter, physical, physical_jacobian
 from pendfmu.fitting.result import Estimate, ExperimentFit, Flag
 
@@ -214,26 +215,7 @@ def without_zero_widths(estimates: dict[str, Estimate]) -> list[str]:
     return notes
 
 
-CORRELATED = 0.1  # |autocorrelation| above which residuals count as correlated at that lag
-MIN_BATCHES = 8  # a series holds this many batches at least: fewer cannot estimate their spread
 BATCH_LENGTHS = 4  # a batch spans this many correlation lengths (shorter ones underestimate the spread)
-
-
-def correlation_length(residual: np.ndarray) -> int:
-    """How many samples a series of residuals stays correlated: one more than the largest
-    lag (up to a MIN_BATCHES-th of the series) at which its autocorrelation exceeds
-    CORRELATED. 1 for independent residuals; a model error that comes and goes with the
-    swing gives about a period's worth."""
-    n = len(residual)
-    if n < 2 * MIN_BATCHES:
-        return 1
-    centred = residual - residual.mean()
-    spectrum = np.fft.rfft(centred, 2 * n)
-    autocovariance = np.fft.irfft(spectrum * np.conj(spectrum))[: n // MIN_BATCHES + 1]
-    if autocovariance[0] <= 0:
-        return 1
-    correlated = np.flatnonzero(np.abs(autocovariance[1:] / autocovariance[0]) > CORRELATED)
-    return int(correlated[-1]) + 2 if len(correlated) else 1
 
 
 def sandwich_covariance(jacobian: np.ndarray, residual: np.ndarray, series: Sequence[tuple[int, int]]

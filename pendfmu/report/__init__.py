@@ -1,13 +1,17 @@
 """The fit report: ``write_report(result, "report/")`` writes ``report/index.html`` (and
-a PNG per identified friction curve), for a person to judge a fit by eye.
+its PNG figures), for a person to judge a fit by eye.
 
-It shows, for each recording fitted or only predicted, an interactive plot of the
-recorded against the simulated signals with the residual (zoom, pan: interactive.py);
-the identified friction laws as the paper's Fig. 1 draws them; the estimates with their
-uncertainty and the reasons they are flagged; the correlations; what the cost means;
-the values each recording ran with; and where the result came from (provenance).
+It shows the fit's verdict (adequate, model-inadequate, fit-failed) with its evidence;
+for each recording fitted or only predicted, an interactive plot of the recorded against
+the simulated signals with the residual (zoom, pan: interactive.py), and the residuals'
+diagnostics (autocorrelation, against amplitude and speed); the identified friction laws
+as the paper's Fig. 1 draws them; the estimates with their uncertainty and the reasons
+they are flagged; the correlations, and the joint region of a pair determined only as a
+combination; the validation of early against late halves; what the cost means; the
+values each recording ran with; and where the result came from (provenance).
 ``content`` computes what is shown, ``figures`` draws the PNGs, ``interactive`` the
-plots, ``html`` writes the page, ``compare`` the page comparing two results.
+plots, ``html`` writes the page (``assessment`` its verdict, validation and diagnostics,
+``markup`` the escaped pieces), ``compare`` the page comparing two results.
 
 A report folder may be reused: the files the previous report wrote there (listed in its
 manifest, manifest.py) are removed first, the user's own files are left alone.
@@ -28,14 +32,16 @@ def write_report(result: FitResult, directory: str | Path) -> Path:
     that fails to render leaves the folder's earlier report as it was."""
     import tempfile
 
-    from pendfmu.report.figures import write_friction_figures
+    from pendfmu.report.figures import write_diagnostics_figures, write_friction_figures, write_joint_figures
     from pendfmu.report.html import page
 
     directory = Path(directory)
     with tempfile.TemporaryDirectory(prefix="pendfmu-report-") as drawn:
         friction = write_friction_figures(result, Path(drawn))
-        text = page(result, friction)
-        figures = {p.file: Path(drawn) / p.file for p in friction}
+        diagnostics = write_diagnostics_figures(result, Path(drawn))
+        joints = write_joint_figures(result, Path(drawn))
+        text = page(result, friction, diagnostics, joints)
+        figures = {p.file: Path(drawn) / p.file for p in [*friction, *diagnostics, *joints] if p}
         return _replace(directory, text, figures)
 
 

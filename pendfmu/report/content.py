@@ -1,4 +1,5 @@
-"""What a report says, independent of how it is drawn: units, error measures, joints.
+"""What a report says, independent of how it is drawn: units, error measures, joints, the
+verdicts and the limit of their validation, the joint region of a pair determined together.
 
 The figures and the HTML page both need the unit of a name, the per-recording error and
 which friction curves a result determines (and the points they are drawn through);
@@ -14,7 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from pendfmu.components import COMPONENTS
+from pendfmu.fitting.adequacy import MODEL_ERROR_LIMIT
 from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult
+from pendfmu.fitting.statistics import Z95
+from pendfmu.fitting.validation import moving
 from pendfmu.fitting.labels import label, parameter_of
 from pendfmu.friction import JOINTS, Joint, Law
 
@@ -237,3 +241,72 @@ def friction_curve(law: Law) -> tuple[np.ndarray, np.ndarray]:
     forward = np.unique(np.concatenate([[NEAR_REST * v_max], forward]))
     speeds = np.concatenate([-forward[::-1], forward])
     return speeds, law.sliding(speeds)
+
+
+def residual_fits(result: FitResult) -> list[tuple[ExperimentFit, str]]:
+    """The recordings whose residuals the report diagnoses, each with how to name it: the
+    fitted ones, then those only predicted with the result (fit all's), which say the more
+    for not having been fitted."""
+    return [(fit, fit.name) for fit in result.experiments] + [(fit, f"{fit.name} (predicted, not fitted)")
+                                                             for fit in result.predicted]
+
+
+def assessments(result: FitResult) -> dict[str, dict]:
+    """The result's verdicts by stage (fitting/adequacy.py): a stage's own, or, for a
+    sequence of stages, each stage's; empty for a result written before there were any."""
+    assessment = result.assessment or {}
+    if "stages" in assessment:
+        return {stage: own for stage, own in assessment["stages"].items() if own and own.get("verdict")}
+    return {result.stage: assessment} if assessment.get("verdict") else {}
+
+
+def beyond_the_limit(assessment: dict) -> dict[str, dict]:
+    """The parameters whose early and late halves disagree by more than the validation
+    allows (validation.moving): one combined interval on a fit whose residuals stand above
+    the noise limit, STRICT of them on one within it (the spread the fit had before its
+    validation, adequacy.MODEL_ERROR_LIMIT)."""
+    spread = assessment.get("spread")
+    adequate = spread <= MODEL_ERROR_LIMIT if finite(spread) else assessment.get("verdict") == "adequate"
+    return moving(assessment.get("windows") or {}, adequate)
+
+
+def white_noise_band(samples: int) -> float:
+    """Half-width of the 95 % band the autocorrelation of `samples` values of white noise
+    stays within at every lag but 0 (Bartlett: each is about normal with variance 1/N)."""
+    return Z95 / math.sqrt(samples)
+
+
+JOINT_LEVEL = math.sqrt(-2.0 * math.log(0.05))
+"""The radius, in standard deviations, of a two-dimensional normal's 95 % region (the
+chi-square quantile of two degrees of freedom, sqrt(5.99))."""
+
+
+def log_spread(estimate: Estimate) -> float | None:
+    """The standard deviation of a positive estimate's logarithm: from its 95 % interval
+    (the reported one, widened where the fit widened it; an interval off the estimate's
+    centre on the log scale counts by its mean half-width), else from its standard error."""
+    if not (finite(estimate.value) and estimate.value > 0):
+        return None
+    if estimate.ci95 is not None and all(finite(end) and end > 0 for end in estimate.ci95):
+        low, high = estimate.ci95
+        if high > low:
+            return (math.log(high) - math.log(low)) / (2.0 * Z95)
+    if finite(estimate.stderr) and estimate.stderr > 0:
+        return float(estimate.stderr) / float(estimate.value)
+    return None
+
+
+def joint_region(a: Estimate, b: Estimate, rho: float, points: int = 240) -> np.ndarray | None:
+    """The 95 % region of two positive estimates, on the log scale, as the (2, points)
+    logarithms of its boundary: the ellipse of their log-scale spreads (log_spread) and
+    correlation `rho`. None when either has no spread."""
+    sa, sb = log_spread(a), log_spread(b)
+    if sa is None or sb is None or not finite(rho):
+        return None
+    rho = max(-1.0, min(1.0, float(rho)))
+    covariance = np.array([[sa * sa, rho * sa * sb], [rho * sa * sb, sb * sb]])
+    variances, axes = np.linalg.eigh(covariance)
+    angle = np.linspace(0.0, 2.0 * math.pi, points)
+    circle = np.vstack([np.cos(angle), np.sin(angle)]) * JOINT_LEVEL
+    centre = np.array([[math.log(a.value)], [math.log(b.value)]])
+    return centre + axes @ (np.sqrt(np.clip(variances, 0.0, None))[:, None] * circle)

@@ -1,4 +1,6 @@
-"""The report's PNG figures: the identified friction curves (the recordings are interactive.py's).
+"""The report's PNG figures: the identified friction curves, the residual diagnostics of each
+recording and the joint region of each pair determined only as a combination (the
+recordings themselves are interactive.py's plots).
 
 Figures are drawn on bare matplotlib ``Figure`` objects (the Agg canvas), never through
 pyplot: a report written from a server, a test or a thread must not depend on, or
@@ -15,14 +17,19 @@ from pathlib import Path
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 
-from pendfmu.fitting.result import FitResult
+from pendfmu.fitting.diagnostics import CORRELATED, Binned, Diagnostics
+from pendfmu.fitting.result import FitResult, diagnostics_of
 from pendfmu.friction import Joint, Law
-from pendfmu.report.content import (bounded_only, fitted_joints, fitted_law, fitted_values, friction_curve,
-                                    interval_text, unit)
+from pendfmu.report.content import (assessments, bounded_only, fitted_joints, fitted_law, fitted_values,
+                                    friction_curve, interval_text, joint_region, residual_fits, unit,
+                                    white_noise_band)
 
 SIMULATED = "#d62728"
 STICTION = "#1f77b4"
+HALVES = {"early": "#2ca02c", "late": "#9467bd"}
+ROW_HEIGHT = 3.0  # inches per signal of a diagnostics figure
 DPI = 110
 
 
@@ -159,3 +166,196 @@ def _annotate(axis, joint: Joint, law: Law, v_max: float) -> None:
     axis.annotate(f"slope {joint.viscous} = {law.k_fw:.4g} {unit(joint.viscous)}", (left, float(law.sliding(left))),
                   xytext=(-6, 10), textcoords="offset points", color=SIMULATED, fontsize="small",
                   ha="right", va="bottom")
+
+
+def write_diagnostics_figures(result: FitResult, directory: Path) -> list[Picture | None]:
+    """Per recording of content.residual_fits, the PNG of its residual diagnostics
+    (fitting/diagnostics.py), or None where the result holds none (an older file's long
+    recording, of which only the display envelope is stored). A PNG is the same 100 to
+    200 kB whatever the recording's length: it draws the summary, not the samples."""
+    pictures: list[Picture | None] = []
+    for number, (fit, name) in enumerate(residual_fits(result), 1):
+        found = diagnostics_of(fit)
+        if not found:
+            pictures.append(None)
+            continue
+        file = f"diagnostics-{number:02d}.png"
+        _save(diagnostics_figure(found), directory / file)
+        pictures.append(Picture(file, f"residual diagnostics of {name}", _diagnostics_caption(found)))
+    return pictures
+
+
+def _diagnostics_caption(found: dict[str, Diagnostics]) -> str:
+    each = [f"{signal}: {d.samples} samples, correlation length {d.correlation_length} "
+            f"({d.correlation_length * d.step:.3g} s), speed from {d.speed_from}" for signal, d in found.items()]
+    return "residual = recorded − simulated; " + "; ".join(each)
+
+
+def diagnostics_figure(found: dict[str, Diagnostics]) -> Figure:
+    """A row per signal: the residuals' autocorrelation with the white-noise band and the
+    correlation length, and their mean in bins of the recorded value and of its rate. Its
+    margins are fixed (in inches), not a layout engine's: that would draw it twice, and a
+    report of many recordings draws many."""
+    height = 0.2 + ROW_HEIGHT * len(found)
+    figure = Figure(figsize=(11.0, height))
+    figure.subplots_adjust(left=0.07, right=0.99, wspace=0.4, bottom=0.55 / height, top=1 - 0.3 / height,
+                           hspace=0.85 / ROW_HEIGHT)
+    for row, (signal, d) in zip(figure.subplots(len(found), 3, squeeze=False), found.items()):
+        _acf_panel(row[0], signal, d)
+        _binned_panel(row[1], d.amplitude, _axis_label(signal, unit(signal)), signal, "against amplitude")
+        rate = d.speed_from.removesuffix(" (recorded)")
+        speed = _axis_label(rate, unit(rate)) if rate != d.speed_from else _axis_label(
+            f"d{signal}/dt", f"{unit(signal)}/s" if unit(signal) else "")
+        _binned_panel(row[2], d.speed, speed, signal, "against speed")
+    return figure
+
+
+def _acf_panel(axis, signal: str, d: Diagnostics) -> None:
+    lags = np.asarray(d.lags) * d.step
+    band = white_noise_band(d.samples)
+    axis.axhspan(-band, band, color="grey", alpha=0.25, lw=0, label=f"white noise 95 %: ±{band:.2g}")
+    for sign in (1, -1):
+        axis.axhline(sign * CORRELATED, color="grey", lw=0.8, ls=":",
+                     label=f"±{CORRELATED:g}: counts as correlated" if sign > 0 else None)
+    axis.plot(lags, d.acf, color=STICTION, lw=1.2, marker=".", ms=2.5)
+    axis.axvline(d.correlation_length * d.step, color=SIMULATED, lw=1, ls="--",
+                 label=f"correlation length {d.correlation_length} samples")
+    axis.axhline(0.0, color="black", lw=0.6)
+    axis.set_xlabel("lag [s]")
+    axis.set_ylabel("autocorrelation")
+    axis.set_title(f"{signal}: residual autocorrelation", fontsize="medium", parse_math=False)
+    axis.legend(fontsize="x-small", loc="upper right")
+    axis.grid(alpha=0.3)
+
+
+def _binned_panel(axis, binned: Binned, xlabel: str, signal: str, against: str) -> None:
+    """The residual's (recorded − simulated) mean per bin with the residuals' spread (±1
+    standard deviation) in it."""
+    centre, mean, spread = (np.asarray(v, float) for v in (binned.centre, binned.mean, binned.spread))
+    axis.fill_between(centre, mean - spread, mean + spread, color=STICTION, alpha=0.2, lw=0, label="±1 sd in the bin")
+    axis.plot(centre, mean, color=STICTION, marker="o", ms=3.5, lw=1.2, label="mean in the bin")
+    axis.axhline(0.0, color="black", lw=0.6)
+    axis.set_xlabel(xlabel, parse_math=False)
+    axis.set_ylabel(_axis_label("residual", unit(signal)))
+    axis.set_title(f"{signal}: residual {against}", fontsize="medium", parse_math=False)
+    _plain_ticks(axis)
+    if not binned.centre:
+        axis.text(0.5, 0.5, "too few samples to bin", transform=axis.transAxes, ha="center", color="grey")
+    else:
+        axis.legend(fontsize="x-small", loc="best")
+    axis.grid(alpha=0.3)
+
+
+def write_joint_figures(result: FitResult, directory: Path) -> list[Picture]:
+    """One PNG per pair the result determines only as a combination (its assessments'
+    `combinations`, validation.separately): their joint region with the combination's line."""
+    pictures = []
+    for stage, assessment in assessments(result).items():
+        halves = (assessment.get("windows") or {}).get("halves") or {}
+        for combination in assessment.get("combinations") or []:
+            figure = joint_figure(result, combination, halves)
+            if figure is None:
+                continue
+            file = f"joint-{len(pictures) + 1:02d}.png"
+            _save(figure, directory / file)
+            a, b = combination["pair"]
+            pictures.append(Picture(file, f"{a} and {b} ({stage})", _joint_caption(combination, halves)))
+    return pictures
+
+
+def _joint_caption(combination: dict, halves: dict) -> str:
+    a, b = combination["pair"]
+    caption = (f"the 95 % joint region of {a} and {b} (from their intervals and their correlation, on log "
+               f"scales) and the line of the combination the recordings determine, {combination['text']} "
+               f"(dashed: its 95 % interval {interval_text(*combination['ci95'])})")
+    if any(a in halves.get(which, {}) for which in HALVES):
+        caption += "; the points: the early and the late halves' estimates with their intervals"
+    return caption + ": the data settle the combination (across the line), not each member (along it)"
+
+
+def joint_figure(result: FitResult, combination: dict, halves: dict) -> Figure | None:
+    """The pair's joint region, the determined line and the halves' estimates; None when
+    the result lacks an estimate of the pair or its spread."""
+    a, b = (result.estimates.get(name) for name in combination["pair"])
+    if a is None or b is None:
+        return None
+    region = joint_region(a, b, (result.correlation.get(a.label) or {}).get(b.label))
+    if region is None:
+        return None
+    figure = Figure(figsize=(6.4, 5.2), layout="constrained")
+    axis = figure.add_subplot()
+    axis.fill(*np.exp(region), fc=(0.12, 0.47, 0.71, 0.35), ec=STICTION, lw=1.5, zorder=3, label="95 % joint region")
+    axis.plot([a.value], [b.value], "o", color="black", ms=4, zorder=4, label="the fit's estimate")
+    shown = [region] + _halves(axis, a.label, b.label, halves)
+    _limits(axis, np.hstack(shown))
+    _power_line(axis, combination)
+    axis.set_xlabel(_axis_label(a.label, unit(a.label)), parse_math=False)
+    axis.set_ylabel(_axis_label(b.label, unit(b.label)), parse_math=False)
+    axis.set_title(f"Determined together: {combination['text']}", fontsize="medium", parse_math=False)
+    axis.grid(alpha=0.3, which="both")
+    figure.legend(loc="outside lower center", fontsize="small", ncols=2)
+    return figure
+
+
+def _halves(axis, a: str, b: str, halves: dict) -> list[np.ndarray]:
+    """The early and late halves' estimates with their intervals (where positive); the
+    log-scale points they span, for the limits."""
+    spans = []
+    for which, colour in HALVES.items():
+        rows = halves.get(which) or {}
+        if a not in rows or b not in rows:
+            continue
+        (x, *x_ends), (y, *y_ends) = rows[a], rows[b]
+        if not (x and y and x > 0 and y > 0):
+            continue
+        xs, ys = _ends(x, x_ends), _ends(y, y_ends)
+        axis.errorbar([x], [y], xerr=[[x - xs[0]], [xs[1] - x]], yerr=[[y - ys[0]], [ys[1] - y]], fmt="s",
+                      color=colour, ms=5, capsize=3, label=f"{which} halves")
+        spans.append(np.log([[xs[0], xs[1]], [ys[0], ys[1]]]))
+    return spans
+
+
+def _ends(value: float, ends: list) -> tuple[float, float]:
+    """An interval's ends where they are positive numbers, else the value itself."""
+    low, high = ends
+    return (low if low and 0 < low <= value else value), (high if high and high >= value else value)
+
+
+def _limits(axis, logs: np.ndarray) -> None:
+    """Log axes that hold every point drawn, with a margin; fixed, so the line is clipped."""
+    axis.set_xscale("log")
+    axis.set_yscale("log")
+    for low, high, setter in ((*_padded(logs[0]), axis.set_xlim), (*_padded(logs[1]), axis.set_ylim)):
+        setter(math.exp(low), math.exp(high))
+    axis.set_autoscale_on(False)
+    _plain_ticks(axis)  # less than a decade: plain numbers, not 5.4 x 10^-4 at every tick
+
+
+def _plain_ticks(axis) -> None:
+    """Tick labels as plain numbers of three digits: no offset or power above the axis,
+    which would run into the panel's title."""
+    plain = FuncFormatter(lambda value, _: f"{value:.3g}")
+    for ticks in (axis.xaxis, axis.yaxis):
+        ticks.set_major_formatter(plain)
+        ticks.set_minor_formatter(plain)
+
+
+def _padded(logs: np.ndarray) -> tuple[float, float]:
+    low, high = float(np.min(logs)), float(np.max(logs))
+    margin = 0.15 * (high - low) if high > low else 0.1
+    return low - margin, high + margin
+
+
+def _power_line(axis, combination: dict) -> None:
+    """p ln a + q ln b = ln(value): a straight line on log axes, and its interval's two."""
+    p, q = combination["powers"]
+    (x0, x1), (y0, y1) = (np.log(axis.get_xlim()), np.log(axis.get_ylim()))
+    norm = p * p + q * q
+    direction = np.array([-q, p]) / math.sqrt(norm)
+    reach = math.hypot(x1 - x0, y1 - y0) + abs(x0) + abs(y0) + abs(x1) + abs(y1)
+    t = np.linspace(-reach, reach, 400)
+    for level, style in ((combination["value"], "-"), *((end, "--") for end in combination["ci95"])):
+        base = math.log(level) * np.array([p, q]) / norm
+        line = base[:, None] + direction[:, None] * t
+        axis.plot(*np.exp(line), color=SIMULATED, lw=1.2 if style == "-" else 0.8, ls=style, zorder=2,
+                  label=f"{combination['text']}" if style == "-" else None)

@@ -5,25 +5,25 @@ an e-mail attachment folder or a CI artifact. The recordings' plots are interact
 (interactive.py: plotly, its library inlined in the page); everything else (tables,
 provenance, the friction curves as PNG) is plain HTML and shows without JavaScript too,
 with a <noscript> note where the plots would be. Every text that comes from a result
-(names, notes, flags, recording names, file paths, the command line) is escaped here, in
-one place, by `_text`; markup is only ever built from escaped pieces.
+(names, notes, flags, recording names, file paths, the command line) is escaped in one
+place, by markup.py's `_text`; markup is only ever built from escaped pieces.
 """
 
 from __future__ import annotations
 
-import html
-import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 
 from pendfmu.report.content import (COST_DEFINITION, SignalError, bounded_only, component_of, description, finite,
-                                    fitted_samples, interval_text, ran_with, recording_values, relative_stderr,
-                                    scaled_rms, signal_errors, unit)
+                                    fitted_samples, ran_with, recording_values, relative_stderr, scaled_rms,
+                                    signal_errors, unit)
+from pendfmu.report.assessment import STYLE as VERDICT_STYLE
+from pendfmu.report.assessment import diagnostics_section, joint_section, validation_section, verdict_box
 from pendfmu.report.figures import Picture
+from pendfmu.report.markup import DASH, _cell, _figures, _section, _table, _text, interval, number
 from pendfmu.report.interactive import library_script, plot_note, recording_plot
 from pendfmu.fitting.result import Estimate, ExperimentFit, FitResult
 from pendfmu.fitting.labels import parameter_of
 
-DASH = "—"  # what a missing or undefined number shows
 NO_FRICTION = "<p>No friction curve: no friction parameters were fitted (or their values are not finite).</p>"
 
 STYLE = """
@@ -59,44 +59,20 @@ NO_SCRIPT = ("<noscript><p>The recordings' plots need JavaScript (they zoom and 
              "The tables show every number; open index.html in a browser to see the plots.</p></noscript>")
 
 
-def _text(value) -> str:
-    """Any value as escaped HTML text."""
-    return html.escape(str(value), quote=True)
-
-
-def number(value, digits: int = 6) -> str:
-    """A number for a table cell: a dash when it is missing or not finite."""
-    if not finite(value):
-        return DASH
-    return f"{float(value):.{digits}g}"
-
-
-def interval(bounds: Sequence[float] | None) -> str:
-    """An interval for a table cell; an unbounded side shows as inf."""
-    if bounds is None or any(math.isnan(float(b)) for b in bounds):
-        return DASH
-    return interval_text(*bounds)
-
-
-def _cell(content: str, css: str = "") -> str:
-    """A table cell from already escaped markup."""
-    return f'<td class="{css}">{content}</td>' if css else f"<td>{content}</td>"
-
-
-def _table(headers: Iterable[str], rows: Iterable[str], caption: str = "") -> str:
-    head = "".join(f'<th scope="col">{_text(h)}</th>' for h in headers)
-    caption = f"<caption class=\"muted\">{_text(caption)}</caption>" if caption else ""
-    return f"<table>{caption}<thead><tr>{head}</tr></thead><tbody>\n" + "\n".join(rows) + "\n</tbody></table>"
-
-
-def page(result: FitResult, friction: list[Picture]) -> str:
-    """The whole report as an HTML5 document."""
+def page(result: FitResult, friction: list[Picture], diagnostics: Sequence[Picture | None] = (),
+         joints: Sequence[Picture] = ()) -> str:
+    """The whole report as an HTML5 document: the verdict first (assessment.py), then the
+    fit, its estimates and how far they hold, the friction, the recordings and their residuals."""
     sections = [
+        verdict_box(result),
         _summary(result),
         _section("Fitted parameters", _estimates(result.estimates)),
         _section("Correlation of the estimates", _correlation(result.correlation)),
+        validation_section(result),
+        joint_section(list(joints)),
         _section("Identified friction", _figures(friction) or NO_FRICTION),
         _section("Recorded and simulated signals", _recordings(result) + _plots(result.experiments, "fit")),
+        diagnostics_section(result, list(diagnostics)),
         _validation(result),
         _section("Parameter values per recording", _per_recording(result)),
         _section("Known parameters (not fitted)", _known(result)),
@@ -111,7 +87,7 @@ def document(title: str, sections: list[str], plots: bool) -> str:
     script = library_script() + "\n" if plots else ""
     return (f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
             f'<meta name="viewport" content="width=device-width, initial-scale=1">\n'
-            f"<title>{_text(title)}</title>\n<style>{STYLE}</style>\n{script}</head>\n<body>\n"
+            f"<title>{_text(title)}</title>\n<style>{STYLE}{VERDICT_STYLE}</style>\n{script}</head>\n<body>\n"
             f"<h1>{_text(title)}</h1>\n" + (NO_SCRIPT + "\n" if plots else "")
             + "\n".join(s for s in sections if s) + "\n</body>\n</html>\n")
 
@@ -126,10 +102,6 @@ def _plots(fits: list[ExperimentFit], prefix: str) -> str:
         parts.append(f"<h3>{_text(fit.name)}</h3>\n<div class=\"plot\">"
                      f"{recording_plot(fit, f'{prefix}-{number:02d}')}</div>")
     return "\n".join(parts)
-
-
-def _section(title: str, body: str) -> str:
-    return f"<section>\n<h2>{_text(title)}</h2>\n{body}\n</section>"
 
 
 def _summary(result: FitResult) -> str:
@@ -211,12 +183,6 @@ def _correlation_cell(value, diagonal: bool) -> str:
     shade = "#eeeeee" if diagonal else f"rgba({colour}, {0.75 * abs(value):.2f})"
     css = "corr strong" if abs(value) > 0.95 and not diagonal else "corr"
     return f'<td class="{css}" style="background: {shade}">{value:+.2f}</td>'
-
-
-def _figures(pictures: list[Picture]) -> str:
-    return "\n".join(
-        f'<figure><img src="{_text(p.file)}" alt="{_text(p.title)}">'
-        f"<figcaption>{_text(p.title)}: {_text(p.caption)}</figcaption></figure>" for p in pictures)
 
 
 def _error_table(fits: list[ExperimentFit], caption: str) -> str:
