@@ -123,6 +123,7 @@ def test_the_joint_figure_draws_the_region_the_line_through_the_estimate_and_the
     axis = figure.axes[0]
     assert axis.get_xscale() == axis.get_yscale() == "log"
     p, q = combination["powers"]
+    assert max(p, q) == 1.0 >= min(abs(p), abs(q))  # the larger power is +1, never k_fwp^-1 * ...
     line = next(l for l in axis.get_lines() if l.get_label() == combination["text"])
     x, y = (np.asarray(v) for v in line.get_data())
     assert np.allclose(p * np.log(x) + q * np.log(y), math.log(combination["value"]))

@@ -188,9 +188,11 @@ def _combination(a: Estimate, b: Estimate, rho: float) -> dict | None:
     sa, sb = a.stderr / a.value, b.stderr / b.value
     covariance = np.array([[sa * sa, rho * sa * sb], [rho * sa * sb, sb * sb]])
     variances, axes = np.linalg.eigh(covariance)
-    p, q = axes[:, 0] / np.max(np.abs(axes[:, 0]))
+    axis = axes[:, 0]
+    largest = axis[int(np.argmax(np.abs(axis)))]  # the larger power is +1: k_fwp * T_Kp^0.84, not k_fwp^-1 ...
+    p, q = axis / largest
     log_value = p * math.log(a.value) + q * math.log(b.value)
-    half = Z95 * math.sqrt(max(variances[0], 0.0)) / np.max(np.abs(axes[:, 0]))
+    half = Z95 * math.sqrt(max(variances[0], 0.0)) / abs(largest)
     text = f"{a.label}^{p:.3g} * {b.label}^{q:.3g} = {math.exp(log_value):.6g}"
     return {"pair": [a.label, b.label], "powers": [float(p), float(q)], "value": math.exp(log_value),
             "ci95": [math.exp(log_value - half), math.exp(log_value + half)], "text": text}

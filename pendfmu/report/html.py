@@ -98,9 +98,9 @@ def _plots(fits: list[ExperimentFit], prefix: str) -> str:
         return ""
     parts = [f'<p class="muted">{_text(plot_note(fits))} Drag to zoom, double-click to reset, click a legend '
              f"entry to hide its curve.</p>"]
-    for number, fit in enumerate(fits, 1):
+    for index, fit in enumerate(fits, 1):
         parts.append(f"<h3>{_text(fit.name)}</h3>\n<div class=\"plot\">"
-                     f"{recording_plot(fit, f'{prefix}-{number:02d}')}</div>")
+                     f"{recording_plot(fit, f'{prefix}-{index:02d}')}</div>")
     return "\n".join(parts)
 
 
