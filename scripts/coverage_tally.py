@@ -185,6 +185,20 @@ def poor_fits(records: list[dict]) -> list[dict]:
     return poor
 
 
+def verdict_counts(records: list[dict]) -> dict[str, dict[str, int]]:
+    """Per stage, how many fits got each verdict (fit.assessment). The benchmark's recordings
+    come from the model the fit uses, so a mark on a fit within NOISE_LIMIT is a false alarm."""
+    counts: dict[str, dict[str, int]] = {}
+    for record in records:
+        spreads = residual_spreads(record)
+        for stage, assessment in record.get("assessment", {}).items():
+            row = counts.setdefault(stage, {})
+            row[assessment["verdict"]] = row.get(assessment["verdict"], 0) + 1
+            if assessment["verdict"] != "adequate" and spreads.get(stage, math.inf) <= NOISE_LIMIT:
+                row["marked within the noise limit"] = row.get("marked within the noise limit", 0) + 1
+    return counts
+
+
 def criteria(table: dict[str, dict], records: list[dict]) -> dict[str, dict]:
     """The goal's criteria: each with its figure, the goal, PASS or FAIL, and its details."""
     rows = {k: table[k] for k in RIG_PARAMETERS if k in table}
@@ -230,6 +244,8 @@ def _print_goal(table: dict[str, dict], records: list[dict]) -> None:
     }
     for key, line in lines.items():
         print(f"  {found[key]['verdict']}  {line} (goal {found[key]['goal']})")
+    for stage, counts in verdict_counts(records).items():
+        print(f"        {stage} verdicts: " + ", ".join(f"{k} {v}" for k, v in counts.items()))
     for poor in found["unmarked_poor_fits"]["poor"]:
         print(f"        truth {poor['index']} {poor['stage']}: residuals {poor['spread']:.3g}x the noise, verdict "
               f"{poor['verdict']}, {'marked' if poor['marked'] else 'NOT marked'}")
@@ -247,7 +263,7 @@ def summary(records: list[dict]) -> dict:
             "methods": sorted({r["method"] for r in records}), "spreads": sorted({r.get("spread", "standard") for r in records}),
             "stages": sorted({s for r in records for s in r["stages"]}),
             "carts_stuck_through_the_ramp": [r["index"] for r in fitted if r.get("ramp_breaks_away") is False],
-            "fit_seconds": [r["seconds"] for r in fitted], "parameters": rows,
+            "fit_seconds": [r["seconds"] for r in fitted], "verdicts": verdict_counts(fitted), "parameters": rows,
             "criteria": criteria(table, fitted) if fitted else {}}
 
 

@@ -72,3 +72,9 @@ def test_the_criteria_pass_and_fail_on_their_own_figures(tmp_path):
 def test_records_without_residual_figures_leave_the_criterion_unjudged():
     old = [{k: v for k, v in record(k).items() if k != "residuals"} for k in range(30)]
     assert tally.criteria(tally.summarize(old), old)["unmarked_poor_fits"]["verdict"] == "FAIL"
+
+
+def test_marks_on_fits_within_the_noise_are_counted_as_false_alarms():
+    records = [record(0, verdict="model-inadequate"), record(1, cart_spread=3.5, verdict="fit-failed"), record(2)]
+    assert tally.verdict_counts(records)["cart"] == {"model-inadequate": 1, "marked within the noise limit": 1,
+                                                     "fit-failed": 1, "adequate": 1}
