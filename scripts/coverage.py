@@ -24,8 +24,9 @@ not, the gap is a disagreement between the FMUs and the physics, not the interva
                                [--stages current,cart,pendulum] [--start K] [--spread wide]
     python scripts/coverage.py --tally out/coverage/results-....jsonl [--summary FILE.json]
 
-A truth takes about 15 s on a shared 2-core machine: 7 s to generate its recordings
-(cached for later runs) and 5-12 s for the fit.
+A truth takes about 4 minutes on a shared 2-core machine (measured with the wide draw):
+20-60 s to generate its recordings (cached for later runs) and 3-4 min for the fit, its
+restarts, the validation of its halves and its bootstrap.
 """
 
 from __future__ import annotations
