@@ -53,6 +53,7 @@ STAGE_PARAMETERS = {"current": ("T_i", "dIdt_max", "a_h", "f_h", "phase_h"),
                     "cart": ("eta", *CART.plain),
                     "pendulum": PENDULUM.plain}
 FACTOR = (0.6, 1.6)  # a drawn parameter's factor on the reference value (log-uniform)
+SPREADS = {"standard": FACTOR, "wide": (0.5, 2.0)}  # draw_truth's ranges of factors, by name
 MIN_STICTION_RATIO = 1.2
 RELEASE_ANGLE = 0.6  # rad from hanging: the free decay's release
 
@@ -66,21 +67,29 @@ def _log_uniform(rng: np.random.Generator, low: float, high: float) -> float:
     return float(math.exp(rng.uniform(math.log(low), math.log(high))))
 
 
-def draw_truth(seed: int, index: int = 0) -> tuple[dict[str, float], float]:
+def draw_truth(seed: int, index: int = 0, spread: str = "standard") -> tuple[dict[str, float], float]:
     """A rig unlike the reference one, and a release angle: truth `index` of the series `seed`.
 
     Every identified parameter (STAGE_PARAMETERS) is its reference value times a factor
-    drawn log-uniformly in FACTOR: log-uniform because the parameters are scales, the fit
-    searches them on a log scale and its errors are relative (a uniform factor would put
-    60 % of the draws above the reference). Stiction is drawn as its Coulomb friction times
-    a ratio, log-uniform within what keeps the stiction itself within FACTOR of its
-    reference and the ratio at least MIN_STICTION_RATIO: near 1 stiction hardly shows (the
-    breakaway is at max(F_S, F_K)), a different, ill-posed question. The release angle of
-    the free decay is RELEASE_ANGLE times a factor in FACTOR, to either side.
+    drawn log-uniformly in SPREADS[spread] (standard: FACTOR, x0.6-1.6; wide: x0.5-2):
+    log-uniform because the parameters are scales, the fit searches them on a log scale and
+    its errors are relative (a uniform factor would put 60 % of the draws above the
+    reference). Stiction is drawn as its Coulomb friction times a ratio, log-uniform within
+    what keeps the stiction itself within the same factors of its reference and the ratio at
+    least MIN_STICTION_RATIO: near 1 stiction hardly shows (the breakaway is at
+    max(F_S, F_K)), a different, ill-posed question. The release angle of the free decay is
+    RELEASE_ANGLE times a factor in the same range, to either side.
 
-    `pendfmu rig --seed N` records truth 0 of series N, so that a fit starting from the
-    reference values has something to find; the coverage benchmark draws many.
+    Nothing makes the cart break away in its slow ramp: a weak drive (low eta) against high
+    stiction leaves it stuck there, with only the steps to tell the cart's friction
+    (cart_ramp_breaks_away says which truths).
+
+    `pendfmu rig --seed N` records truth 0 of the standard series N, so that a fit starting
+    from the reference values has something to find; the coverage benchmark draws many.
     """
+    if spread not in SPREADS:
+        raise ValueError(f"spread {spread!r}: one of {', '.join(SPREADS)}")
+    factor = SPREADS[spread]
     rng = np.random.default_rng([seed, index])
     reference = reference_truth()
     truth: dict[str, float] = {}
@@ -89,13 +98,23 @@ def draw_truth(seed: int, index: int = 0) -> tuple[dict[str, float], float]:
             coulomb = STICTION_OF[name]
             ratio_ref = reference[name] / reference[coulomb]
             scale = reference[coulomb] / truth[coulomb]  # the drawn Coulomb's factor, inverted
-            low = max(MIN_STICTION_RATIO, FACTOR[0] * ratio_ref * scale)
-            high = FACTOR[1] * ratio_ref * scale
+            low = max(MIN_STICTION_RATIO, factor[0] * ratio_ref * scale)
+            high = factor[1] * ratio_ref * scale
             truth[name] = truth[coulomb] * _log_uniform(rng, low, high)
         else:
-            truth[name] = reference[name] * _log_uniform(rng, *FACTOR)
-    angle = RELEASE_ANGLE * _log_uniform(rng, *FACTOR) * float(rng.choice([-1.0, 1.0]))
+            truth[name] = reference[name] * _log_uniform(rng, *factor)
+    angle = RELEASE_ANGLE * _log_uniform(rng, *factor) * float(rng.choice([-1.0, 1.0]))
     return truth, angle
+
+
+def cart_ramp_breaks_away(truth: Mapping[str, float]) -> bool:
+    """Whether the cart of `truth` breaks away in the cart-ramp experiment: the drive force
+    eta k_M k_D I at the ramp's last command exceeds the breakaway threshold max(F_Sc, F_Kc)
+    (MODEL.md; the current follows its slow command within T_i, a fraction of a sample)."""
+    values = {**reference_truth(), **truth}
+    ramp = next(e for e in standard_experiments() if e.name == "cart-ramp")
+    force = values["eta"] * values["k_M"] * values["k_D"] * ramp.drive(ramp.duration)
+    return force > max(values["F_Sc"], values["F_Kc"])
 
 
 def steps(*levels: tuple[float, float]) -> Callable[[float], float]:

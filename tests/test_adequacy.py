@@ -55,8 +55,11 @@ def test_a_fit_as_good_as_the_sensors_is_adequate_and_searched_once(rippled):
     assert not any(note.startswith("the residuals stood at") for note in result.notes)
 
 
-def outcome(level: float, n: int = 100, nfev: int = 10) -> Outcome:
-    return Outcome(np.zeros(1), np.zeros((n, 1)), np.full(n, level), nfev, 0, 1.0)
+def outcome(level: float, n: int = 100, nfev: int = 10, searched: float | None = None) -> Outcome:
+    """A search's outcome at `level` times the noise; `searched`: where its global search's own
+    refinement ended, in the same unit, when the outcome kept is the starting values' refinement."""
+    return Outcome(np.zeros(1), np.zeros((n, 1)), np.full(n, level), nfev, 0, 1.0,
+                   searched_cost=None if searched is None else 0.5 * n * searched**2)
 
 
 def test_a_missed_minimum_found_by_a_wider_search_is_kept(monkeypatch):
@@ -84,6 +87,29 @@ def test_searches_that_disagree_and_stay_poor_are_fit_failed(monkeypatch):
     assert adequacy.spread(found) == 30.0
     verdict = adequacy.assess(found, searches)
     assert verdict["verdict"] == "fit-failed" and "different costs" in verdict["evidence"][-1]
+
+
+def test_searches_that_keep_the_same_start_have_not_settled(monkeypatch):
+    """Each search also refines the starting values and keeps the lower: when that wins every
+    time, the searches keep the same outcome without their global searches having found it
+    (the wide coverage benchmark's truth 10: a cart whose ramp and 2 A step never break it away,
+    kept twice at 137 times the noise and called model-inadequate on its own model's data). So
+    the search goes on, wider, and the fit is fit-failed, naming the starting values."""
+    searched = iter([1100.0, 900.0, 1000.0])
+    monkeypatch.setattr(adequacy, "optimize", lambda *args: outcome(137.0, searched=next(searched)))
+    found, searches = adequacy.search_until_settled(None, None, np.zeros(1), 10, GlobalOptions())
+    assert [(s.seed, s.population) for s in searches] == [(10, 8), (11, 8), (12, 16)]
+    verdict = adequacy.assess(found, searches)
+    assert verdict["verdict"] == "fit-failed", verdict
+    assert "the refinement of the starting values, which no global search reached" in verdict["evidence"][-1]
+
+
+def test_global_searches_that_reach_the_minimum_kept_have_settled(monkeypatch):
+    """Two seeds' global searches end where the kept outcome is: the minimum is found."""
+    searched = iter([137.0, 137.2])
+    monkeypatch.setattr(adequacy, "optimize", lambda *args: outcome(137.0, searched=next(searched)))
+    found, searches = adequacy.search_until_settled(None, None, np.zeros(1), 10, GlobalOptions())
+    assert len(searches) == 2 and adequacy.assess(found, searches)["verdict"] == "model-inadequate"
 
 
 def test_flag_kinds_survive_the_result_file(rippled, tmp_path):

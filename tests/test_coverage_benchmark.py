@@ -144,3 +144,45 @@ def test_truths_stay_within_the_issues_factors_with_stiction_above_coulomb():
         assert 0.36 - 1e-12 <= abs(angle) <= 0.96 + 1e-12
     assert BENCHMARK.draw_truth(1, 7) == BENCHMARK.draw_truth(1, 7) != BENCHMARK.draw_truth(2, 7)
     assert math.isfinite(ANGLE)
+
+
+def test_the_wide_draw_spans_x05_to_2_and_keeps_the_standard_one():
+    """--spread wide (issue 25): every parameter x0.5-2 of the reference, stiction still at least
+    1.2 times its Coulomb friction, the release angle 0.6 rad x0.5-2; the default series is the
+    one `pendfmu rig --seed` has always recorded (truth (4, 0) pinned as drawn before the option)."""
+    reference = reference_truth()
+    factors = []
+    for index in range(200):
+        truth, angle = BENCHMARK.draw_truth(1, index, "wide")
+        factors += [value / reference[name] for name, value in truth.items()]
+        assert truth["F_Sc"] >= 1.2 * truth["F_Kc"] and truth["T_Sp"] >= 1.2 * truth["T_Kp"]
+        assert 0.3 - 1e-12 <= abs(angle) <= 1.2 + 1e-12
+    assert 0.5 - 1e-12 <= min(factors) < 0.55 and 1.9 < max(factors) <= 2.0 + 1e-12
+    assert BENCHMARK.draw_truth(1, 7) == BENCHMARK.draw_truth(1, 7, "standard") != BENCHMARK.draw_truth(1, 7, "wide")
+    assert BENCHMARK.draw_truth(4, 0)[0]["eta"] == 0.3472024289778563
+    with pytest.raises(ValueError, match="spread 'wider'"):
+        BENCHMARK.draw_truth(1, 7, "wider")
+
+
+def test_the_cart_stuck_through_its_ramp_is_the_one_the_reference_keeps_still():
+    """cart_ramp_breaks_away, against the independent simulator on the benchmark's own ramp: of
+    two wide truths with a clear margin, the one it calls stuck does not move by a single
+    encoder step, the other runs. Nothing in the draw forces the breakaway: some 30 % stay."""
+    from pendfmu.virtual_rig import cart_ramp_breaks_away
+
+    ramp = next(e for e in rr.stage_experiments() if e.name == "cart-ramp")
+    reference = reference_truth()
+
+    def margin(truth):
+        force = truth["eta"] * reference["k_M"] * reference["k_D"] * ramp.drive(ramp.duration)
+        return force / max(truth["F_Sc"], truth["F_Kc"])
+
+    truths = [BENCHMARK.draw_truth(0, index, "wide")[0] for index in range(30)]
+    stuck = [t for t in truths if not cart_ramp_breaks_away(t)]
+    assert 0.15 * len(truths) <= len(stuck) <= 0.6 * len(truths)
+    still = next(t for t in stuck if margin(t) < 0.9)
+    runs = next(t for t in truths if margin(t) > 1.1)
+    assert cart_ramp_breaks_away(runs)
+    for truth, moves in ((still, False), (runs, True)):
+        x = rr.reference_signals(ramp, {**reference, **truth})["x"]
+        assert (np.max(np.abs(x)) > step("x")) == moves

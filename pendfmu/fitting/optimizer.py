@@ -52,6 +52,10 @@ class Outcome:
     global_best: float | None = None
     messages: list[str] = field(default_factory=list)
     last_failure: str = ""  # why the last failed simulation failed ("" when none did)
+    # the cost (half the sum of squares) where the refinement of the global search's best
+    # ended; the outcome kept may be the refinement of the starting values, which is the same
+    # in every search (None: no global search, the outcome is the start's)
+    searched_cost: float | None = None
 
 
 WORKER_WAIT = 60.0  # seconds a fit waits for a Dask scheduler's first worker
@@ -241,15 +245,17 @@ def optimize(residuals: Residuals, coarse: Residuals | None, u0: np.ndarray, see
         starts = [u_global] + ([u0] if not np.allclose(u_global, u0, rtol=0, atol=BOUND_SNAP) else [])
     if progress:
         progress("local refinement (least squares)")
+    searched = None
     if len(u0):
-        u, jacobian, residual = _best_local(residuals, starts, messages, jacobian_threads(options))
+        u, jacobian, residual, costs = _best_local(residuals, starts, messages, jacobian_threads(options))
         u, jacobian, residual = snap_to_bounds(residuals, u, jacobian, residual)
+        searched = 0.5 * costs[0] if global_best is not None else None
     else:
         u, residual = u0, residuals(u0)
         jacobian = np.zeros((len(residual), 0))
     # least_squares does not count the evaluations of its finite-difference Jacobian.
     return Outcome(u, jacobian, residual, nfev + residuals.evaluations, failures + residuals.failures,
-                   time.perf_counter() - start, global_best, messages, last_failure(residuals, coarse))
+                   time.perf_counter() - start, global_best, messages, last_failure(residuals, coarse), searched)
 
 
 def last_failure(residuals: Residuals, coarse: Residuals | None) -> str:
@@ -268,7 +274,8 @@ def jacobian_threads(options: GlobalOptions) -> int:
 
 
 def _best_local(residuals: Residuals, starts: list[np.ndarray], messages: list[str], threads: int = 1):
-    """The local refinement from each start; the lowest optimum, and a note when they differ."""
+    """The local refinement from each start; the lowest optimum, a note when they differ, and
+    every start's sum of squares at its end."""
     found = []
     for u0 in starts:
         u, jacobian, residual, note = local_search(residuals, u0, threads)
@@ -288,7 +295,7 @@ def _best_local(residuals: Residuals, starts: list[np.ndarray], messages: list[s
         else:
             messages.append(f"the local refinement from the starting values ended in another minimum (cost "
                             f"{other:.6g} against {cost:.6g}): the cost has several minima; the lower is kept")
-    return u, jacobian, residual
+    return u, jacobian, residual, [f[0] for f in found]
 
 
 BOUND_ZONE = 1e-4  # ... and one this close, if the bound fits at least as well

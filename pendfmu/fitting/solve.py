@@ -259,7 +259,8 @@ class _Found:
 DRIFT_RATIO = 10.0
 DRIFT_START = 0.05
 """A recording's error after its first DRIFT_START (a twentieth) DRIFT_RATIO times the error
-within it: the simulation runs away from the recording (drift_warnings)."""
+within it, and beyond MODEL_ERROR_LIMIT times the noise: the simulation runs away from the
+recording (drift_warnings)."""
 
 
 def drift_warnings(fits: Sequence[ExperimentFit]) -> list[str]:
@@ -268,7 +269,9 @@ def drift_warnings(fits: Sequence[ExperimentFit]) -> list[str]:
     the recording further and further behind from a start where it agreed, and no parameter
     value can fix that. Said when the RMS error of a recorded signal after its first
     twentieth is DRIFT_RATIO times the error within it (the start is where the replay and
-    the recording agree best: both begin from the same state)."""
+    the recording agree best: both begin from the same state) and stands above the noise
+    by more than a fit's residuals may (MODEL_ERROR_LIMIT): a cart at rest before its ramp
+    starts with no error at all, and the quantization's error after it is no drift."""
     found = []
     for fit in fits:
         for column, recorded in fit.recorded.items():
@@ -278,7 +281,7 @@ def drift_warnings(fits: Sequence[ExperimentFit]) -> list[str]:
             if len(error) < 2 * start:
                 continue
             early, late = (float(np.sqrt(np.mean(part**2))) for part in (error[:start], error[start:]))
-            if late > DRIFT_RATIO * early:
+            if late > DRIFT_RATIO * early and late > MODEL_ERROR_LIMIT * fit.scale.get(column, 0.0):
                 growth = f"{late / early:.3g}-fold" if early > 0 else "from nothing"
                 found.append(f"{fit.name}: the simulated {column} drifts away from the recording (its error grows "
                              f"{growth} after the first twentieth of the run): the model misses something that "
