@@ -25,7 +25,8 @@ import pytest
 
 from pendfmu.cli import main
 from pendfmu.errors import OptionError
-from pendfmu.fitting.laws import compare_laws, ladder, law_parameters
+from pendfmu.fitting.ladder import ladder, law_parameters
+from pendfmu.fitting.laws import compare_laws, held_out
 from pendfmu.fitting.optimizer import GlobalOptions
 from pendfmu.fitting.ranking import LawRow, Misfit, PartFit, information, ranked, recommend
 from pendfmu.friction import CART, PENDULUM
@@ -33,7 +34,10 @@ from pendfmu.recording import write_recording
 from pendfmu.virtual_rig import Sensors, Trial, reference_truth, steps
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import realdata as rd  # noqa: E402
+import realdata_rigs as rigs  # noqa: E402
 import reference_recordings as rr  # noqa: E402
+from _common import fit_arguments  # noqa: E402
 
 SEARCH = GlobalOptions(popsize=4, maxiter=4)
 SEARCH_WORDS = ["--population", "4", "--generations", "4", "--seed", "0"]
@@ -130,6 +134,38 @@ def test_a_pendulum_with_an_offset_torque_gets_the_offset_law():
     assert offset.whole.values["T_Op"] == pytest.approx(0.02, rel=0.05)
 
 
+# The real recordings (../shared/realdata): the servo carriage's start-up and braking (1024 samples, the
+# whole ladder but drag) and the Furuta pendulum's 5 s free swing (4900 samples, with the example's free
+# inertia and sensor offset and scale: 10 free parameters at the top of the ladder, where the whole ladder took
+# 20 minutes on the loaded machine; the laws whose terms a free decay can show, 20 s).
+REAL = {"friction-identification": (rigs.carriage, rigs.carriage.LINE_OPTIONS, ()),
+        "rotary-inverted-pendulum": (rigs.furuta, rigs.furuta.OPTIONS, ("viscous", "coulomb", "stiction", "drag"))}
+
+
+@pytest.mark.parametrize("name", REAL)
+def test_real_recordings_get_a_complete_ranking_and_a_reasoned_recommendation(name, tmp_path, capsys):
+    """Every law compared has its held-out error, BIC and rank; one is recommended, and the
+    console and the file say why."""
+    convert, options, laws = REAL[name]
+    if not rd.available(*convert.SOURCES):
+        pytest.skip(f"the real recordings of {name} are not in {rd.REALDATA}")
+    out = tmp_path / "laws.json"
+    arguments = fit_arguments(convert.STAGE, *convert.build(), options, tmp_path)
+    argv = ["laws", *arguments[1:], "--out", str(out), *SEARCH_WORDS, *(("--laws", *laws) if laws else ())]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    document = json.loads(out.read_text())
+    compared = {law["name"]: law for law in document["laws"]}
+    assert list(compared) == list(laws or [rung.name for rung in ladder(CART)])
+    for law in compared.values():
+        assert law["rank"] is not None and law["held_out_rms"] > 0 and law["delta_bic"] >= 0, law
+        assert law["whole"]["rms"] > 0 and "failed" not in law["whole"], law
+    assert sorted(law["rank"] for law in compared.values()) == list(range(1, len(compared) + 1))
+    chosen = compared[document["recommended"]]
+    assert "within 5% of the best" in document["reason"]
+    assert f"recommended: {chosen['label']} ({', '.join(chosen['terms'])}): {document['reason']}" in printed
+
+
 # ------------------------------------------------------------------ the ladder and the ranking, no fits
 
 
@@ -167,6 +203,22 @@ def test_the_current_stage_has_no_friction_law(tmp_path, capsys):
     assert not (tmp_path / "laws.json").exists()
 
 
+def test_the_held_out_data_are_the_late_halves_else_the_last_recording(stairs):
+    """validation.halves splits a recording of 800 samples or more; shorter ones, when there
+    are several, hold out the last; one short recording holds out nothing."""
+    from pendfmu.fitting.problem import build_problem
+    from pendfmu.fitting.spec import FitSpec
+
+    long = held_out(build_problem(FitSpec("cart", [stairs])))
+    assert [r.span for r in long.fitted] == [(0.0, pytest.approx(1.225))]
+    assert [r.span for r in long.predicted] == [(pytest.approx(1.225), pytest.approx(2.45))]
+    short = [stairs.window(0.0, 0.6), stairs.window(0.6, 1.2)]
+    others = held_out(build_problem(FitSpec("cart", short)))
+    assert others.fitted == (short[0],) and others.predicted == (short[1],)
+    assert "predicted by the law fitted to the other recordings" in others.how
+    assert held_out(build_problem(FitSpec("cart", short[:1]))).fitted == ()
+
+
 def row(name: str, held_out: float, squares: float, free: int, samples: int = 1000, effective: float = 100.0
         ) -> LawRow:
     whole = PartFit(residuals=Misfit(samples, squares, effective), free=free)
@@ -188,3 +240,13 @@ def test_bic_counts_the_effective_samples_of_the_best_fit():
     assert information(rows) == 400.0  # b fits best: its residuals' effective count
     assert rows[0].bic == pytest.approx(400.0 * math.log(4.0) + 2 * math.log(400.0))
     assert rows[1].bic == pytest.approx(400.0 * math.log(1.0) + 3 * math.log(400.0))
+
+
+def test_without_held_out_data_the_lowest_bic_is_recommended():
+    rows = [row("a", 1.0, 4000.0, 2), row("b", 1.0, 1000.0, 3), row("c", 1.0, 999.0, 6)]
+    for r in rows:
+        r.early = None
+    information(rows)
+    name, reason = recommend(rows)
+    assert name == "b" and "lowest BIC" in reason
+    assert "no recording is long enough to hold out" in reason

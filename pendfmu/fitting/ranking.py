@@ -100,7 +100,8 @@ class PartFit:
     parameters : dict
         Every value the fit ran with, fitted and known: the start of a richer law's fit.
     boxes : dict
-        The search box of each fitted parameter, (low, high).
+        The search box of each fitted parameter, (low, high); a stiction fitted relative to
+        the Coulomb friction has its ratio's box.
     residuals : Misfit
         Of the fit, on the data it was fitted to.
     free : int
