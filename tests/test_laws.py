@@ -250,3 +250,24 @@ def test_without_held_out_data_the_lowest_bic_is_recommended():
     name, reason = recommend(rows)
     assert name == "b" and "lowest BIC" in reason
     assert "no recording is long enough to hold out" in reason
+
+
+def test_the_laws_run_on_a_dask_cluster_as_on_local_processes(stairs):
+    """The fits are jobs (bootstrap.parallel_map): on a Dask cluster's workers they give the
+    comparison that local processes give (each fit is seeded, whoever runs it)."""
+    distributed = pytest.importorskip("distributed")
+    options = dict(laws=["viscous", "stiction"], seed=0)
+    start = cart_start(reference_truth())
+    local = compare_laws("cart", [stairs], start, global_search=GlobalOptions(popsize=2, maxiter=2, workers=2),
+                         **options)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+                                  processes=True) as cluster:
+        remote = compare_laws("cart", [stairs], start, **options,
+                              global_search=GlobalOptions(popsize=2, maxiter=2, scheduler=cluster.scheduler_address))
+
+    def numbers(comparison):
+        document = comparison.to_dict()
+        return [(law["name"], law["held_out_rms"], law["whole"]["values"]) for law in document["laws"]]
+
+    assert numbers(remote) == numbers(local)
+    assert remote.recommended == local.recommended == "stiction"

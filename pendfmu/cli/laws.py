@@ -72,8 +72,9 @@ def summary(comparison, out: str) -> list[str]:
     lines = [f"{out}: {len(comparison.rows)} friction laws of the {comparison.stage} stage in "
              f"{comparison.seconds:.0f} s; held out: {comparison.held_out}",
              comparison.table(),
-             "RMS: of the residuals in units of the sensor noise (1: as good as the sensors allow); dBIC: BIC "
-             f"minus the lowest, on {comparison.effective_samples:.4g} effective samples"]
+             "free: the parameters each law estimates; RMS: of the residuals in units of the sensor noise (1: as "
+             f"good as the sensors allow); dBIC: BIC minus the lowest, on {comparison.effective_samples:.4g} "
+             "effective samples"]
     if comparison.recommended is None:
         return [*lines, f"no law recommended: {comparison.reason}"]
     chosen = comparison.row(comparison.recommended)

@@ -108,6 +108,8 @@ class PartFit:
         Parameters estimated, the recordings' own initial states included.
     seconds : float
         The fit's time (the held-out prediction's included).
+    own : dict
+        The recordings' own estimates (their initial states), by label: a richer law's start.
     held_out : Misfit or None
         Of the held-out data, predicted by this fit (the early halves' fit only).
     failed : str or None
@@ -122,6 +124,7 @@ class PartFit:
     residuals: Misfit = field(default_factory=Misfit)
     free: int = 0
     seconds: float = 0.0
+    own: dict[str, float] = field(default_factory=dict)
     held_out: Misfit | None = None
     failed: str | None = None
     note: str | None = None
@@ -187,7 +190,8 @@ def information(rows: Sequence[LawRow]) -> float:
     effective = max(best.whole.residuals.effective, 1.0)
     for row in fitted:
         residuals = row.whole.residuals
-        row.bic = effective * math.log(residuals.squares / residuals.samples) + row.whole.free * math.log(effective)
+        mean_square = max(residuals.squares / residuals.samples, 1e-300)  # a perfect fit: no log of 0
+        row.bic = effective * math.log(mean_square) + row.whole.free * math.log(effective)
     return effective
 
 
@@ -213,8 +217,9 @@ def recommend(rows: Sequence[LawRow], margin: float = MARGIN) -> tuple[str | Non
                              f"half, so the laws' predictions were not compared")
     best = min(held, key=lambda row: row.held_out)
     chosen = next(row for row in held if row.held_out <= (1 + margin) * best.held_out)
+    leader = "its own" if best is chosen else f"{best.label}: {best.held_out:.3g}"
     reason = (f"the simplest law whose held-out error ({chosen.held_out:.3g} x noise) is within {margin:.0%} of "
-              f"the best ({best.label}: {best.held_out:.3g})")
+              f"the best ({leader})")
     richer = [row for row in held if rows.index(row) > rows.index(chosen)]
     if richer:
         gain = 1 - min(row.held_out for row in richer) / chosen.held_out
