@@ -12,6 +12,11 @@ fit(target, recordings, **options)
     Fit a stage of the paper ('current', 'cart', 'pendulum'), the paper's sequence on a
     folder ('all') or a user's FMU or SSP system to recordings; returns a FitResult
     (pendfmu.fitting.identification). The one front door: `pendfmu fit` calls it too.
+compare_laws(stage, recordings, params, **options)
+    Fit the candidate friction laws of the cart or the pendulum (viscous, + Coulomb,
+    + stiction, + Stribeck, + asymmetry, + offset, + air drag) and rank them by their error on
+    held-out data and BIC, with a recommendation; returns a LawComparison with table(),
+    to_dict() and recommended (pendfmu.fitting.laws).
 FitSpec
     What a fit is asked to do, whole: the keywords of fit as one object
     (pendfmu.fitting.spec).
@@ -34,6 +39,7 @@ __version__ = "0.1.0"
 
 _API = {
     "fit": "pendfmu.fitting.identification",
+    "compare_laws": "pendfmu.fitting.laws",
     "FitSpec": "pendfmu.fitting.spec",
     "FitResult": "pendfmu.fitting.result",
     "Estimate": "pendfmu.fitting.result",

@@ -9,7 +9,7 @@ import inspect
 
 import pendfmu
 
-PUBLIC = ["__version__", "fit", "FitSpec", "FitResult", "Estimate", "read_result", "write_report", "export_result",
+PUBLIC = ["__version__", "fit", "compare_laws", "FitSpec", "FitResult", "Estimate", "read_result", "write_report", "export_result",
           "GlobalOptions", "Model", "Recording", "read_recording", "write_recording"]
 FIT_PARAMETERS = ["target", "recordings", "params", "progress", "checkpoint", "warn", "strict", "options"]
 SPEC_FIELDS = ["target", "recordings", "params", "free", "fix", "bounds", "drive", "match", "initial", "interpolation",

@@ -93,7 +93,7 @@ SUBMODULE_APIS = {
     "pendfmu.recording": ["INITIAL_NAMES", "MAT_TIME_NAMES", "MAX_BYTES", "PARAMETER_NAMES", "QUANTIZERS", "RIG",
                           "SIGNAL_NAMES", "Recording", "RecordingError", "SignalInfo", "Vocabulary",
                           "check_output_path", "format_document", "quantize", "read_recording", "write_recording", "write_signals"],
-    "pendfmu.report": ["write_report", "write_comparison"],
+    "pendfmu.report": ["write_report", "write_comparison", "write_laws_report"],
     "pendfmu.simulator": ["ComponentFMU", "FMUError", "ParameterError", "unpacked_fmu"],
     "pendfmu.ssp": ["Connection", "Connector", "DefaultExperiment", "FmuComponent", "ParameterSet", "ParameterValue",
                     "SHARED_PARAMETERS", "SspError", "System", "Unit", "check_system", "describe_fmu",

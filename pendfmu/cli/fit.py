@@ -34,45 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--params", help="known parameter values, and the start of the fitted ones")
     parser.add_argument("--out", required=True, help="result: parameters, stderr, ci95, fit statistics (JSON)")
     parser.add_argument("--report", help="write an HTML report with figures into this folder")
-    parser.add_argument("--seed", type=int, help="seed of the global search (default 0)")
-    parser.add_argument("--free", nargs="+", action="extend", default=[], metavar="NAME", help="fit these too")
-    parser.add_argument("--fix", nargs="+", action="extend", default=[], metavar="NAME", help="keep these at their given values")
-    parser.add_argument("--bounds", nargs="+", action="extend", default=[], metavar="NAME=LOW:HIGH", help="search bounds")
-    parser.add_argument("--drive", nargs="+", action="extend", metavar="INPUT[=COLUMN]",
-                        help="a stage: the recorded signal that drives it (I_c, I, u or a); a model: its inputs driven "
-                             "by recorded columns (default: each input with a column of its name)")
-    parser.add_argument("--match", nargs="+", action="extend", metavar="OUTPUT[=COLUMN]",
-                        help="a model: its outputs compared with recorded columns (default: each output with a "
-                             "column of its name); a stage: its recorded rate compared as well (pendulum: w, "
-                             "cart: v)")
-    parser.add_argument("--initial", nargs="+", action="extend", metavar="SIGNAL=PARAMETER",
-                        help="a model: the parameter a sidecar's initial value of SIGNAL sets (default: an output "
-                             "x sets a parameter x0 where the model has one)")
-    parser.add_argument("--interpolation", choices=("hold", "linear"),
-                        help="a model: its drives between samples, held (default) or linear (where the FMU can "
-                             "interpolate inputs)")
-    parser.add_argument("--per-recording", nargs="+", action="extend", default=[], metavar="NAME",
-                        help="estimate these for each recording (or window, segment) on its own: initial states "
-                             "(x0 v0 phi0 w0), a sensor's offset (phi_offset), any parameter")
-    parser.add_argument("--window", nargs="+", action="extend", default=[], metavar="T0:T1",
-                        help="fit only these time windows of each recording (seconds); each starts from its own "
-                             "initial states")
-    parser.add_argument("--segment", type=float, metavar="SECONDS",
-                        help="split each recording (or window) into segments this long, each fitted from its own "
-                             "initial states (multiple shooting, for long, closed-loop or unstable runs)")
-    parser.add_argument("--start", choices=("estimated", "measured", "turning"),
-                        help="initial states of a window or segment that starts late: estimated (default) or taken "
-                             "from its first readings; the pendulum stage: 'turning' starts each recording (window, "
-                             "segment) at the first turning point of its swing, where the rate is known")
-    parser.add_argument("--cost", choices=("plain", "quantized"), default="plain",
-                        help="residuals: plain least squares, or zero inside each reading's quantization step")
-    parser.add_argument("--no-global", action="store_true", help="skip the global search (local refinement only)")
-    parser.add_argument("--generations", type=int, metavar="N", help="generations of the global search (default 25)")
-    parser.add_argument("--population", type=int, metavar="N",
-                        help="the global search's candidates per free parameter (default 8)")
-    parser.add_argument("--workers", type=int, default=0, help="processes for the global search (default: cores)")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="evaluate the global search on a Dask cluster (e.g. tcp://10.0.0.5:8786)")
+    add_parameter_options(parser)
+    add_data_options(parser, model=True)
+    add_search_options(parser)
     parser.add_argument("--checkpoint", help="checkpoint file written on Ctrl-C (default: OUT with .checkpoint)")
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted fit from its checkpoint (same command otherwise)")
@@ -91,20 +55,78 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "result: after writing it)")
 
 
+def add_parameter_options(parser: argparse.ArgumentParser) -> None:
+    """--seed, --free, --fix, --bounds: shared with `pendfmu laws`."""
+    parser.add_argument("--seed", type=int, help="seed of the global search (default 0)")
+    parser.add_argument("--free", nargs="+", action="extend", default=[], metavar="NAME", help="fit these too")
+    parser.add_argument("--fix", nargs="+", action="extend", default=[], metavar="NAME", help="keep these at their given values")
+    parser.add_argument("--bounds", nargs="+", action="extend", default=[], metavar="NAME=LOW:HIGH", help="search bounds")
+
+
+def add_data_options(parser: argparse.ArgumentParser, model: bool) -> None:
+    """What a stage (or, with `model`, a user's model) is driven by and compared with, and
+    which parts of the recordings: shared with `pendfmu laws` (stages only)."""
+    parser.add_argument("--drive", nargs="+", action="extend", metavar="INPUT[=COLUMN]",
+                        help="a stage: the recorded signal that drives it (I_c, I, u or a); a model: its inputs driven "
+                             "by recorded columns (default: each input with a column of its name)")
+    parser.add_argument("--match", nargs="+", action="extend", metavar="OUTPUT[=COLUMN]",
+                        help="a model: its outputs compared with recorded columns (default: each output with a "
+                             "column of its name); a stage: its recorded rate compared as well (pendulum: w, "
+                             "cart: v)")
+    if model:
+        parser.add_argument("--initial", nargs="+", action="extend", metavar="SIGNAL=PARAMETER",
+                            help="a model: the parameter a sidecar's initial value of SIGNAL sets (default: an output "
+                                 "x sets a parameter x0 where the model has one)")
+        parser.add_argument("--interpolation", choices=("hold", "linear"),
+                            help="a model: its drives between samples, held (default) or linear (where the FMU can "
+                                 "interpolate inputs)")
+    parser.add_argument("--per-recording", nargs="+", action="extend", default=[], metavar="NAME",
+                        help="estimate these for each recording (or window, segment) on its own: initial states "
+                             "(x0 v0 phi0 w0), a sensor's offset (phi_offset), any parameter")
+    parser.add_argument("--window", nargs="+", action="extend", default=[], metavar="T0:T1",
+                        help="fit only these time windows of each recording (seconds); each starts from its own "
+                             "initial states")
+    parser.add_argument("--segment", type=float, metavar="SECONDS",
+                        help="split each recording (or window) into segments this long, each fitted from its own "
+                             "initial states (multiple shooting, for long, closed-loop or unstable runs)")
+    parser.add_argument("--start", choices=("estimated", "measured", "turning"),
+                        help="initial states of a window or segment that starts late: estimated (default) or taken "
+                             "from its first readings; the pendulum stage: 'turning' starts each recording (window, "
+                             "segment) at the first turning point of its swing, where the rate is known")
+    parser.add_argument("--cost", choices=("plain", "quantized"), default="plain",
+                        help="residuals: plain least squares, or zero inside each reading's quantization step")
+
+
+def add_search_options(parser: argparse.ArgumentParser) -> None:
+    """The global search and where it runs: shared with `pendfmu laws`."""
+    parser.add_argument("--no-global", action="store_true", help="skip the global search (local refinement only)")
+    parser.add_argument("--generations", type=int, metavar="N", help="generations of the global search (default 25)")
+    parser.add_argument("--population", type=int, metavar="N",
+                        help="the global search's candidates per free parameter (default 8)")
+    parser.add_argument("--workers", type=int, default=0, help="processes for the global search (default: cores)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="evaluate the global search on a Dask cluster (e.g. tcp://10.0.0.5:8786)")
+
+
 def fit_spec(args: argparse.Namespace):
     """The command line's words as a FitSpec (fitting/spec.py): parsed, nothing decided."""
-    from pendfmu.fitting.optimizer import GlobalOptions
     from pendfmu.fitting.spec import FitSpec
 
     target, recordings = _target_and_recordings(args)
+    return FitSpec(target, recordings, initial=args.initial, interpolation=args.interpolation, harmonic=args.harmonic,
+                   uncertainty=args.uncertainty, replicates=args.replicates, **spec_options(args))
+
+
+def spec_options(args: argparse.Namespace) -> dict:
+    """The FitSpec fields that `pendfmu fit` and `pendfmu laws` share, from their words."""
+    from pendfmu.fitting.optimizer import GlobalOptions
+
     sizes = {name: value for name, value in (("popsize", args.population), ("maxiter", args.generations))
              if value is not None}
     search = GlobalOptions(enabled=not args.no_global, workers=args.workers, scheduler=args.scheduler, **sizes)
-    return FitSpec(target, recordings, params=args.params or {}, free=args.free, fix=args.fix, bounds=args.bounds,
-                   drive=args.drive, match=args.match, initial=args.initial, interpolation=args.interpolation,
-                   per_recording=args.per_recording, windows=args.window, segment=args.segment, start=args.start,
-                   cost=args.cost, harmonic=args.harmonic, seed=args.seed, global_search=search,
-                   uncertainty=args.uncertainty, replicates=args.replicates)
+    return dict(params=args.params or {}, free=args.free, fix=args.fix, bounds=args.bounds, drive=args.drive,
+                match=args.match, per_recording=args.per_recording, windows=args.window, segment=args.segment,
+                start=args.start, cost=args.cost, seed=args.seed, global_search=search)
 
 
 def run(args: argparse.Namespace) -> int:

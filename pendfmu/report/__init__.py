@@ -11,7 +11,8 @@ combination; the validation of early against late halves; what the cost means; t
 values each recording ran with; and where the result came from (provenance).
 ``content`` computes what is shown, ``figures`` draws the PNGs, ``interactive`` the
 plots, ``html`` writes the page (``assessment`` its verdict, validation and diagnostics,
-``markup`` the escaped pieces), ``compare`` the page comparing two results.
+``markup`` the escaped pieces), ``compare`` the page comparing two results, ``laws`` the
+page of a friction-law comparison.
 
 A report folder may be reused: the files the previous report wrote there (listed in its
 manifest, manifest.py) are removed first, the user's own files are left alone.
@@ -23,7 +24,7 @@ from pathlib import Path
 
 from pendfmu.fitting.result import FitResult
 
-__all__ = ["write_report", "write_comparison"]
+__all__ = ["write_report", "write_comparison", "write_laws_report"]
 
 
 def write_report(result: FitResult, directory: str | Path) -> Path:
@@ -52,6 +53,14 @@ def write_comparison(first: FitResult, second: FitResult, directory: str | Path,
     from pendfmu.report.compare import comparison_page
 
     return _replace(Path(directory), comparison_page(first, second, names, sources), {})
+
+
+def write_laws_report(comparison, directory: str | Path) -> Path:
+    """Write the page of a friction-law comparison (pendfmu.fitting.laws) into `directory`;
+    returns its index.html."""
+    from pendfmu.report.laws import laws_page
+
+    return _replace(Path(directory), laws_page(comparison), {})
 
 
 def _replace(directory: Path, text: str, figures: dict[str, Path]) -> Path:
