@@ -132,11 +132,19 @@ def _extra_boxes(joint: Joint, extras: Sequence[str], known: Mapping[str, float]
     return bounds, middles
 
 
+NEGLIGIBLE = 1e-4
+"""The drag's box reaches this far below the joint's physical decades (friction.py), so that
+its low end is no drag: 1e-9 N.m.s2, the physical box's end, raised the Furuta pendulum's
+RMS (J_p = 8.8e-5 kg.m2) by 0.7 % against no drag, 1e-13 by 7e-7 %; a law that does not hold
+the one below it cannot be refitted from it (Rung.nests)."""
+
+
 def second_round_boxes(joint: Joint, base: PartFit, reach: float = 0.0) -> dict[str, tuple[float, float]]:
     """Boxes of the terms without their own (module docstring), from the base law's fit:
     an asymmetry up to the term it skews; an offset up to `reach` (the largest Coulomb
     friction the stage searches without a given value, stages.derived_box) or the base
-    law's Coulomb box, whichever is larger."""
+    law's Coulomb box, whichever is larger; the drag's physical box reaching down to no
+    drag (NEGLIGIBLE)."""
     boxes = {}
     for mean, skew in ((joint.viscous, joint.viscous_asymmetry), (joint.coulomb, joint.coulomb_asymmetry)):
         size = abs(base.parameters.get(mean, 0.0))
@@ -145,4 +153,7 @@ def second_round_boxes(joint: Joint, base: PartFit, reach: float = 0.0) -> dict[
     reach = max(reach, base.boxes.get(joint.coulomb, (0.0, 0.0))[1])
     if reach > 0:
         boxes[joint.offset] = (-reach, reach)
+    if joint.drag in joint.boxes:
+        low, high, _ = joint.boxes[joint.drag]
+        boxes[joint.drag] = (low * NEGLIGIBLE, high)
     return boxes

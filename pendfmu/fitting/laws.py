@@ -49,7 +49,7 @@ from dataclasses import dataclass, field, replace
 from pendfmu.errors import OptionError, PendfmuError
 from pendfmu.fitting.adequacy import SAME_COST
 from pendfmu.fitting.bootstrap import parallel_map
-from pendfmu.fitting.labels import is_own, label
+from pendfmu.fitting.labels import is_own
 from pendfmu.fitting.ladder import FIRST_ROUND, Rung, ladder, law_parameters, law_spec, second_round_boxes
 from pendfmu.fitting.optimizer import local_search
 from pendfmu.fitting.problem import Problem, build_problem, given_values, start_vector
@@ -125,15 +125,16 @@ def run_job(job: Job) -> PartFit:
 
 def start_own(problem: Problem, own: Mapping[str, float]) -> None:
     """Start each recording's own estimates (its initial states) at `own`'s values where
-    they lie in their boxes. Why: a fit from a lower law's optimum must start at that law
-    whole; from the first readings instead (a Furuta swing's release angle, 0.05 rad from
-    the optimum's with a free encoder offset) the asymmetry's refinement ended at 3.7
-    times the lower law's RMS."""
-    for experiment in problem.experiments:
-        for name, (guess, low, high) in experiment.estimated.items():
-            value = own.get(label(name, experiment.name))
-            if value is not None and (low is None or low <= value <= high):
-                experiment.estimated[name] = (value, low, high)
+    they lie in their search boxes. Why: a fit from a lower law's optimum must start at
+    that law whole; from the first readings instead (a Furuta swing's release angle, 0.65
+    rad from the optimum's with a free encoder offset and scale) the asymmetry's refinement
+    ended at 3.7 times the lower law's RMS."""
+    experiments = {experiment.name: experiment for experiment in problem.experiments}
+    for p in problem.free:
+        value = own.get(p.label)
+        if p.experiment is not None and value is not None and p.low <= value <= p.high:
+            _, low, high = experiments[p.experiment].estimated[p.name]
+            experiments[p.experiment].estimated[p.name] = (value, low, high)
 
 
 def part_fit(result: FitResult) -> PartFit:

@@ -134,6 +134,8 @@ class PartFit:
                     "effective_samples": self.residuals.effective, "sum_of_squares": self.residuals.squares,
                     "free": self.free, "values": dict(self.values),
                     "boxes": {name: list(box) for name, box in self.boxes.items()}, "seconds": self.seconds}
+        if self.own:
+            document["initial"] = dict(self.own)
         if self.held_out is not None:
             document["held_out"] = {"rms": _finite(self.held_out.rms), "samples": self.held_out.samples}
         for key in ("failed", "note"):
