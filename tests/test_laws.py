@@ -135,9 +135,9 @@ def test_a_pendulum_with_an_offset_torque_gets_the_offset_law():
 
 
 # The real recordings (../shared/realdata): the servo carriage's start-up and braking (1024 samples, the
-# whole ladder but drag) and the Furuta pendulum's 5 s free swing (4900 samples, with the example's free
-# inertia and sensor offset and scale: 10 free parameters at the top of the ladder, where the whole ladder took
-# 20 minutes on the loaded machine; the laws whose terms a free decay can show, 20 s).
+# whole ladder, the cart has no drag) and the Furuta pendulum's free swing (4067 samples, with the example's
+# free inertia and encoder offset and scale: 12 free parameters at the top of the ladder, whose whole ladder
+# takes 5 minutes, 20 on the loaded machine; viscous, Coulomb, stiction and drag: 20 s).
 REAL = {"friction-identification": (rigs.carriage, rigs.carriage.LINE_OPTIONS, ()),
         "rotary-inverted-pendulum": (rigs.furuta, rigs.furuta.OPTIONS, ("viscous", "coulomb", "stiction", "drag"))}
 
@@ -195,6 +195,16 @@ def test_what_does_not_apply_is_refused_before_any_fit(options, option, stairs):
     with pytest.raises(OptionError) as refused:
         compare_laws("cart", [stairs], {}, **options)
     assert refused.value.option == option
+
+
+def test_the_command_line_names_the_refused_option_as_typed(stiction_rig, capsys):
+    folder, out, argv = stiction_rig
+    recording = argv[2]
+    assert main(["laws", "cart", recording, "--free", "F_Sc", "--out", str(folder / "refused.json")]) == 2
+    assert "pendfmu laws: error: --free: F_Sc: the comparison frees and fixes" in capsys.readouterr().err
+    assert main(["laws", "cart", recording, "--laws", "viscous", "sticky", "--out", str(folder / "refused.json")]) == 2
+    assert "--laws: 'sticky': the cart's laws are viscous, coulomb, stiction" in capsys.readouterr().err
+    assert not (folder / "refused.json").exists()
 
 
 def test_the_current_stage_has_no_friction_law(tmp_path, capsys):

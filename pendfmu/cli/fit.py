@@ -97,15 +97,15 @@ def add_data_options(parser: argparse.ArgumentParser, model: bool) -> None:
                         help="residuals: plain least squares, or zero inside each reading's quantization step")
 
 
-def add_search_options(parser: argparse.ArgumentParser) -> None:
-    """The global search and where it runs: shared with `pendfmu laws`."""
+def add_search_options(parser: argparse.ArgumentParser, runs: str = "the global search") -> None:
+    """The global search and where it runs (`runs`: what the workers run): shared with `pendfmu laws`."""
     parser.add_argument("--no-global", action="store_true", help="skip the global search (local refinement only)")
     parser.add_argument("--generations", type=int, metavar="N", help="generations of the global search (default 25)")
     parser.add_argument("--population", type=int, metavar="N",
                         help="the global search's candidates per free parameter (default 8)")
-    parser.add_argument("--workers", type=int, default=0, help="processes for the global search (default: cores)")
+    parser.add_argument("--workers", type=int, default=0, help=f"processes for {runs} (default: cores)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="evaluate the global search on a Dask cluster (e.g. tcp://10.0.0.5:8786)")
+                        help=f"evaluate {runs} on a Dask cluster (e.g. tcp://10.0.0.5:8786)")
 
 
 def fit_spec(args: argparse.Namespace):

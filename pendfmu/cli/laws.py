@@ -38,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "drag; each adds its terms to the one before among them")
     add_parameter_options(parser)
     add_data_options(parser, model=False)
-    add_search_options(parser)
+    add_search_options(parser, runs="the laws' fits")
 
 
 def run(args: argparse.Namespace) -> int:
