@@ -11,31 +11,17 @@ current's transients were resolved; the cart test keeps the cause in view.
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import json
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
-sys.path.append(str(SCRIPTS))  # appended: scripts/coverage.py must not shadow a 'coverage' package
+import reference_rig
+from coverage_scripts import BENCHMARK
+from coverage_scripts import reference_recordings as rr
+from pendfmu.virtual_rig import Sensors, reference_truth, simulate_truth, write_experiments
 
-import reference_recordings as rr  # noqa: E402
-import reference_rig  # noqa: E402
-from pendfmu.virtual_rig import Sensors, reference_truth, simulate_truth, write_experiments  # noqa: E402
-
-
-def _benchmark():
-    spec = importlib.util.spec_from_file_location("coverage_benchmark", SCRIPTS / "coverage.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-BENCHMARK = _benchmark()
 DRAWN, ANGLE = BENCHMARK.draw_truth(0, 3)  # the drawn truth with the largest cart disagreement of 0..5
 TRUTH = {**reference_truth(), **DRAWN}
 SHORTER = {"pendulum-decay": 6.0, "pendulum-stiction": 8.0}  # s; both still stick and slip
