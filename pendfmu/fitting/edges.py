@@ -60,7 +60,7 @@ def explain_edges(free: Sequence[FreeParameter], outcome, estimates: dict[str, E
             continue  # stiction relative to Coulomb friction: its bound is stiction.py's to read
         lower = bool(outcome.u[k] <= 0.5)
         experiment = by_name.get(p.experiment) if p.experiment else None
-        state = experiment.read_from.get(p.name) if experiment is not None else None
+        state = experiment.read_from.get(p.name) if experiment is not None and _sensors_box(p, experiment) else None
         if state is not None:
             _set_bound_flag(estimate, sensor_edge(p, lower, experiment, state, spread, limit))
         elif spread > limit:
@@ -103,6 +103,13 @@ def sensor_edge(p: FreeParameter, lower: bool, experiment: Experiment, state: St
             f"noise the sidecar states for {state.column}, or fit its zero: --free {state.column}_offset), or the "
             f"model misses a small term that the start absorbs (free the term you suspect, e.g. a friction extra, "
             f"and compare the fits)")
+
+
+def _sensors_box(p: FreeParameter, experiment: Experiment) -> bool:
+    """Whether p's box is the one its sensor's first readings gave (not the user's --bounds:
+    then the box, not the sensor, set the edge, and the usual advice to widen it holds)."""
+    _, low, high = experiment.estimated.get(p.name, (None, None, None))
+    return low is not None and high is not None and math.isclose(p.low, low) and math.isclose(p.high, high)
 
 
 def _set_bound_flag(estimate: Estimate, text: str) -> None:
