@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import json
 import os
-import secrets
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
+from pendfmu.atomic import write_atomically
 from pendfmu.recording.csv_text import format_rows, header_line
 from pendfmu.recording.model import Recording
 from pendfmu.recording.schema import RecordingError
@@ -73,7 +73,7 @@ def write_signals(path: str | os.PathLike, time, columns: Mapping[str, object]) 
         table[:, j] = values
     names = ["time", *columns]
     if suffix == ".csv":
-        _write_atomic(path, [header_line(names), format_rows(table)])
+        write_atomically(path, [header_line(names), format_rows(table)])
     else:
         _write_mat(path, names, table)
     return path
@@ -92,9 +92,9 @@ def write_recording(recording: Recording, path: str | os.PathLike) -> Path:
         raise RecordingError(f"{path}: write_recording writes CSV; the name must end in .csv")
     names = list(recording.signals)
     table = np.column_stack([recording.time, *(recording.signals[n] for n in names)])
-    _write_atomic(path, [header_line(["time", *names]), format_rows(table)])
+    write_atomically(path, [header_line(["time", *names]), format_rows(table)])
     sidecar = json.dumps(_sidecar_document(recording), indent=2) + "\n"
-    _write_atomic(path.with_suffix(".json"), [sidecar.encode("utf-8")])
+    write_atomically(path.with_suffix(".json"), [sidecar.encode("utf-8")])
     return path
 
 
@@ -122,31 +122,7 @@ def _write_mat(path: Path, names: list[str], table: np.ndarray) -> None:
     for k, name in enumerate(names[1:]):
         signals[0, k] = (table[:, k + 1:k + 2].copy(), 1.0, name)
     structure = {"time": table[:, :1].copy(), "signals": signals}
-    _write_atomic(path, None, lambda out: scipy.io.savemat(out, {MAT_VARIABLE: structure}, format="5"))
-
-
-def _write_atomic(path: Path, chunks, writer=None) -> None:
-    """Write the byte chunks (or call `writer` with the open binary file) to a new file
-    in the same folder, then rename it over `path`. The file is made with mode 0666 less
-    the umask, as any new file (mkstemp's 0600 would hide a result from the group)."""
-    while True:
-        temporary = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.part")
-        try:
-            handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-            break
-        except FileExistsError:  # pragma: no cover - a 32-bit random name taken
-            continue
-    try:
-        with os.fdopen(handle, "wb") as out:
-            if writer is not None:
-                writer(out)
-            else:
-                for chunk in chunks:
-                    out.write(chunk)
-        os.replace(temporary, path)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
+    write_atomically(path, None, lambda out: scipy.io.savemat(out, {MAT_VARIABLE: structure}, format="5"))
 
 
 def _vector(values, label: str) -> np.ndarray:
