@@ -32,8 +32,8 @@ MEANING = {
 }
 LIMIT_CAPTION = (f"highlighted: moved beyond the limit, flagged model-inadequate (the limit: one combined interval on "
                  f"a fit whose residuals stand far above the noise, {STRICT:g} on one as good as the sensors, where "
-                 f"one parameter in twenty disagrees by chance, and there only when a half's values predict the other "
-                 f"half beyond the noise limit). Not compared: a half gives no finite interval")
+                 f"one parameter in twenty disagrees by chance, and there only when each half's values predict the "
+                 f"other half beyond the noise limit). Not compared: a half gives no finite interval")
 TITLE = {"adequate": "Adequate", "model-inadequate": "Model inadequate", "fit-failed": "Fit failed"}
 STYLE = """
 div.verdict { border: 2px solid; border-radius: 4px; padding: 0.5em 1em; margin: 1em 0 1.5em 0; }
