@@ -192,9 +192,9 @@ class _Found:
                 estimate.ci95, estimate.method = (low, high), f"{estimate.method}, widened to the sandwich"
 
     def validate(self, spec: FitSpec) -> None:
-        """The halves of long recordings refitted (validation.py): a parameter that moves is
-        marked and its interval widened; on a fit as good as the sensors only a strong
-        disagreement counts, and it makes the fit model-inadequate."""
+        """The halves of long recordings refitted (validation.py): on a fit that misses
+        something a parameter that moves is marked and its interval widened; on a fit as good
+        as the sensors the halves are reported, not judged."""
         adequate = self.verdict["verdict"] == "adequate"
         started = time.perf_counter()
         consistency = validate(spec, self.problem, {**self.problem.values, **self.fitted},
@@ -204,12 +204,7 @@ class _Found:
         self.verdict["windows"] = consistency
         if not adequate:
             hold_the_halves(self.estimates, consistency)
-        moved = moving(consistency, adequate)
-        evidence = mark_moving(self.estimates, moved)
-        if evidence and adequate:
-            self.verdict["verdict"] = "model-inadequate"
-            self.warnings.append("model-inadequate: " + "; ".join(evidence))
-        self.verdict["evidence"] += evidence
+        self.verdict["evidence"] += mark_moving(self.estimates, moving(consistency, adequate))
         if self.verdict["verdict"] != "adequate":
             self.verdict["combinations"] = separately(self.estimates, self.assessed.correlation)
 

@@ -263,8 +263,8 @@ def assessments(result: FitResult) -> dict[str, dict]:
 def beyond_the_limit(assessment: dict) -> dict[str, dict]:
     """The parameters whose early and late halves disagree by more than the validation
     allows (validation.moving): one combined interval on a fit whose residuals stand above
-    the noise limit, STRICT of them on one within it (the spread the fit had before its
-    validation, adequacy.MODEL_ERROR_LIMIT)."""
+    the noise limit (adequacy.MODEL_ERROR_LIMIT); none on a fit within it, whose halves are
+    shown, not judged."""
     spread = assessment.get("spread")
     adequate = spread <= MODEL_ERROR_LIMIT if finite(spread) else assessment.get("verdict") == "adequate"
     return moving(assessment.get("windows") or {}, adequate)
