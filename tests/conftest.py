@@ -12,6 +12,25 @@ import pytest
 from pendfmu.fmubuild import build_all
 
 
+FIRST = ("test_readme_runs.py", "test_examples_realdata.py", "test_realdata_fits.py", "test_identification.py",
+         "test_wheel.py", "test_loop_events.py")
+"""The longest modules (--durations of a whole run), started first: `make test` runs the
+modules on two pytest-xdist workers, and a long module started last would run alone at the end."""
+
+
+def pytest_collection_modifyitems(config, items):
+    """Each module runs whole on one xdist worker (`-n 2 --dist loadgroup` in `make test`), so
+    that its module-scoped fits run once; every test that runs Windows programs shares one
+    group, as they share one wine prefix and wineserver (the `wine` fixture). The longest
+    modules go first (FIRST)."""
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None:
+            group = "wine" if "wine" in item.fixturenames else item.nodeid.split("::")[0]
+            item.add_marker(pytest.mark.xdist_group(group))
+    rank = {name: k for k, name in enumerate(FIRST)}
+    items.sort(key=lambda item: rank.get(Path(str(item.fspath)).name, len(FIRST)))
+
+
 @pytest.fixture(scope="session", autouse=True)
 def built_fmus():
     return build_all()
