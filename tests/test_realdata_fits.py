@@ -10,9 +10,10 @@ half on two cores:
 * one seed per data set, with ``--replicates 8`` (the fewest the CLI allows) instead of
   24: the bootstrap's replicate count changes the interval's width, not whether a file is
   written or whether an interval may leave the physical range. (On these recordings the
-  fits are marked, so their intervals are the sandwich's whatever was asked: a second run
-  per data set with ``--uncertainty jacobian`` gave the same intervals at twice the cost;
-  the Jacobian ones are run where the overflow was found, the carriage's line);
+  fits are marked: a bootstrap asked for becomes the sandwich, and Jacobian intervals are
+  widened to at least it, so a second run per data set with ``--uncertainty jacobian``
+  doubled the cost to test nearly the same intervals; the Jacobian run is kept where the
+  overflow was found, the carriage's line);
 * MultiArm on 3 of the script's 8 decay windows (25 s instead of 5 minutes);
 * two seeds where a set is reported: the carriage's straight-line fit (its stiction sits
   at the Coulomb bound; the example itself now frees the Stribeck speed) and the Furuta
