@@ -135,7 +135,7 @@ def parallel_map(function: Callable, jobs: Sequence, workers: int = 0, scheduler
 
         with Client(scheduler, set_as_default=False) as client:
             futures = client.map(function, jobs, pure=False)
-            for _ in as_completed(futures):
+            for _ in as_completed(futures, loop=client.loop):  # without the loop it looks for a default client
                 done()
             return client.gather(futures)
     workers = min(workers or os.cpu_count() or 1, len(jobs))
