@@ -10,10 +10,15 @@ files directly in the folder, nothing else) before writing its own.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
+
+from pendfmu.atomic import write_atomically
+from pendfmu.jsontext import parse_json
 
 MANIFEST = ".pendfmu-report.json"
 KIND = "pendfmu report"
@@ -23,7 +28,7 @@ def previous_files(directory: Path) -> list[Path]:
     """The files an earlier report listed in `directory`'s manifest and that are still
     there; an unreadable or foreign manifest lists none (nothing is removed on a guess)."""
     try:
-        document = json.loads((directory / MANIFEST).read_text(encoding="utf-8"))
+        document = parse_json((directory / MANIFEST).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return []
     if not isinstance(document, dict) or document.get("kind") != KIND or not isinstance(document.get("files"), list):
@@ -74,7 +79,7 @@ def remove_previous(directory: Path) -> list[Path]:
     """Remove the files of the report written earlier into `directory`; returns them."""
     removed = earlier_report_files(directory)
     for path in removed:
-        path.unlink()
+        path.unlink(missing_ok=True)
     (directory / MANIFEST).unlink(missing_ok=True)
     return removed
 
@@ -82,6 +87,24 @@ def remove_previous(directory: Path) -> list[Path]:
 def write_manifest(directory: Path, files: Iterable[Path]) -> Path:
     """List the files this report wrote (names relative to `directory`)."""
     names = sorted({Path(f).name for f in files})
-    path = directory / MANIFEST
-    path.write_text(json.dumps({"kind": KIND, "files": names}, indent=1) + "\n", encoding="utf-8")
-    return path
+    return write_atomically(directory / MANIFEST, json.dumps({"kind": KIND, "files": names}, indent=1) + "\n")
+
+
+@contextlib.contextmanager
+def folder_lock(directory: Path) -> Iterator[None]:
+    """Hold `directory` for one report at a time: an exclusive lock on the folder itself
+    (flock, released when the process ends, however it ends; no lock file to leave behind).
+    Why: a second report reading the folder while the first replaces its files took the
+    first one's new files for a stranger's ("was not written by a pendfmu report") or
+    removed them under it. Where flock does not exist (Windows) reports do not take turns."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        yield
+        return
+    handle = os.open(directory, os.O_RDONLY)
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(handle)
