@@ -59,29 +59,34 @@ def one_line(text: object) -> str:
 
 def matlab_string(text: object) -> str:
     """A MATLAB expression whose value is the character array `text`: ``'it''s'``, and where
-    `text` holds a line break or another control character, a concatenation such as
-    ``['a' char(10) 'b']`` (a quoted MATLAB string cannot span lines). Lone surrogates,
-    which MATLAB's UTF-8 reader cannot take, are shown as escapes."""
+    `text` holds an ASCII control character (a line break), a concatenation such as
+    ``['a' char(10) 'b']`` (a quoted MATLAB string cannot span lines). Other characters are
+    written as they are (the file is UTF-8; MATLAB ends a line only at LF and CR, and
+    Octave's char(N) holds no N above 127); lone surrogates, which UTF-8 cannot encode, are
+    shown as escapes."""
     pieces, literal = [], ""
     for char in str(text):
-        if _unsafe(char) and not _SURROGATE.match(char):
+        if _unsafe(char) and char.isascii():
             pieces += [f"'{literal}'"] if literal else []
             pieces.append(f"char({ord(char)})")
             literal = ""
         else:
-            literal += _shown(char) if _unsafe(char) else char.replace("'", "''")
+            literal += _shown(char) if _SURROGATE.match(char) else char.replace("'", "''")
     pieces += [f"'{literal}'"] if literal or not pieces else []
     return pieces[0] if len(pieces) == 1 else "[" + " ".join(pieces) + "]"
 
 
 def modelica_string(text: object) -> str:
     """A Modelica string literal (quotes included) of `text`: Modelica's own escapes for
-    quotes, backslashes and the control characters it names; other control characters (no
-    escape exists for them) shown as their escapes."""
+    quotes, backslashes and the control characters it names; any other character as it is
+    (a Modelica string holds any Unicode character), but for control characters with no
+    escape and lone surrogates, shown as their escapes."""
     out = []
     for char in str(text):
         escaped = _MODELICA_ESCAPES.get(char)
-        out.append(escaped if escaped is not None else _shown(char).replace("\\", "\\\\") if _unsafe(char) else char)
+        if escaped is None and unicodedata.category(char) in ("Cc", "Cs"):
+            escaped = _shown(char).replace("\\", "\\\\")
+        out.append(char if escaped is None else escaped)
     return '"' + "".join(out) + '"'
 
 
