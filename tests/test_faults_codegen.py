@@ -24,7 +24,7 @@ import rumoca
 from lxml import etree
 
 from pendfmu.cli import main
-from pendfmu.export.fmu import START_COMMENT_LENGTH, start_file_text
+from pendfmu.export import fmu as fmu_export
 from pendfmu.fitting.result import ExperimentFit
 from pendfmu.fmubuild import ensure_fmu
 from pendfmu.report.interactive import recording_plot
@@ -123,27 +123,22 @@ end
         assert names["k_fwc"] == source and len(names) > 10
 
 
-def test_the_fmu_copy_and_the_ssv_hold_the_hostile_name_and_path_as_data(exports):
-    """lxml reads the copy's model description and the SSV file; the name comes back exactly,
-    the path is in the description, and writing the document again reads back the same."""
-    with zipfile.ZipFile(exports["fmu"] / "Cart.fmu") as fmu:
-        root = etree.fromstring(fmu.read("modelDescription.xml"))
-    again = etree.fromstring(etree.tostring(root))
-    for document in (root, again):
+def test_the_fmu_copy_and_the_ssv_hold_the_hostile_name_as_data_and_a_control_character_shown(tmp_path):
+    """lxml reads the copy's model description and the SSV file: the hostile name comes back
+    exactly, and writing the document again reads back the same. A control character in the
+    path (XML cannot hold it, not even escaped) is shown in the description, not refused."""
+    params = tmp_path / "bell\x07.json"
+    params.write_text(json.dumps({"parameters": {HOSTILE_NAME: 2.5, "k_fwc": 31.25}}))
+    fmu = hostile_fmu(tmp_path / "H.fmu")
+    assert main(["export", "--fmu", str(fmu), "--params", str(params), "--out", str(tmp_path / "o")]) == 0
+    with zipfile.ZipFile(tmp_path / "o" / "Cart.fmu") as copy:
+        root = etree.fromstring(copy.read("modelDescription.xml"))
+    for document in (root, etree.fromstring(etree.tostring(root))):
         variable = next(v for v in document.iter("ScalarVariable") if v.get("name") == HOSTILE_NAME)
         assert float(variable.find("Real").get("start")) == 2.5
-        assert exports["names source"] in document.get("description")
-    values = read_ssv(exports["fmu"] / "parameters.ssv").values
+        assert f"{tmp_path}/bell\\x07.json" in document.get("description")
+    values = read_ssv(tmp_path / "o" / "parameters.ssv").values
     assert values[f"Cart.{HOSTILE_NAME}"].value == 2.5 and values["Cart.k_fwc"].value == 31.25
-
-
-def test_a_control_character_in_the_path_is_shown_in_the_description_not_refused_by_xml(tmp_path):
-    params = tmp_path / "bell\x07.json"
-    params.write_text(json.dumps({"parameters": {"k_fwc": 20.0}}))
-    assert main(["export", "--params", str(params), "--out", str(tmp_path / "o"), "--component", "Cart"]) == 0
-    with zipfile.ZipFile(tmp_path / "o" / "Cart.fmu") as fmu:
-        description = etree.fromstring(fmu.read("modelDescription.xml")).get("description")
-    assert f"{tmp_path}/bell\\x07.json" in description
 
 
 def test_the_start_file_keeps_every_hostile_name_inside_one_short_comment_line():
@@ -155,8 +150,8 @@ def test_the_start_file_keeps_every_hostile_name_inside_one_short_comment_line()
     variables[0].set("name", HOSTILE_NAME)
     variables[1].set("name", "x" * 400)
     root.set("modelName", "Model\nname")
-    lines = start_file_text(etree.tostring(root)).split("\n")[:-1]
-    assert lines[0].startswith("guid {") and all(len(line) <= min(START_COMMENT_LENGTH, 255) for line in lines[1:])
+    lines = fmu_export.start_file_text(etree.tostring(root)).split("\n")[:-1]
+    assert lines[0].startswith("guid {") and all(len(line) <= 255 for line in lines[1:])
     values = [line for line in lines[1:] if not line.startswith("#")]
     assert len(values) == len(variables) and all(re.fullmatch(r"\d+ \S+", line) for line in values)
     assert len(lines) == 2 + 2 * len(variables)
