@@ -67,22 +67,23 @@ def _replace(directory: Path, text: str, figures: dict[str, Path]) -> Path:
     """Put a rendered report (page text, figure name -> drawn file) into `directory`: the
     earlier report's files go (manifest.py), the user's stay. A file of the new report's
     name that pendfmu did not write (someone's own index.html) stops it: BadInput, nothing
-    changed. Every file is written whole or not at all (atomic.py), and two reports into
-    one folder take turns (manifest.folder_lock): the last one written is the folder's."""
-    from pendfmu.atomic import write_atomically
+    changed. The page and its figures are written together or not at all (atomic.py), and
+    two reports into one folder take turns (manifest.folder_lock): the last one is the
+    folder's."""
+    from pendfmu.atomic import write_together
     from pendfmu.errors import UsageError
     from pendfmu.report.manifest import folder_lock, remove_previous, write_manifest
 
     if directory.exists() and not directory.is_dir():
         raise UsageError(f"{directory}: is a file, not a report folder")
     directory.mkdir(parents=True, exist_ok=True)
+    index = directory / "index.html"
     with folder_lock(directory):
         _refuse_foreign(directory, ["index.html", *figures])
-        remove_previous(directory)
-        for name, drawn in figures.items():
-            write_atomically(directory / name, drawn.read_bytes())
-        index = write_atomically(directory / "index.html", text)
-        write_manifest(directory, [*(directory / name for name in figures), index])
+        files = write_together({**{directory / name: drawn.read_bytes() for name, drawn in figures.items()},
+                                index: text})  # all or none: a full disk leaves the earlier report whole
+        remove_previous(directory, keep=files)
+        write_manifest(directory, files)
     return index
 
 

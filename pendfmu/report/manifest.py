@@ -75,9 +75,11 @@ def is_pendfmu_page(path: Path) -> bool:
     return re.search(r"<title>pendfmu (fit report|comparison)", head) is not None
 
 
-def remove_previous(directory: Path) -> list[Path]:
-    """Remove the files of the report written earlier into `directory`; returns them."""
-    removed = earlier_report_files(directory)
+def remove_previous(directory: Path, keep: Iterable[Path] = ()) -> list[Path]:
+    """Remove the files of the report written earlier into `directory` but those in `keep`
+    (the new report's, already in place); returns the removed."""
+    kept = {Path(path) for path in keep}
+    removed = [path for path in earlier_report_files(directory) if path not in kept]
     for path in removed:
         path.unlink(missing_ok=True)
     (directory / MANIFEST).unlink(missing_ok=True)
