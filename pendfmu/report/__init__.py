@@ -79,16 +79,17 @@ def _replace(directory: Path, text: str, figures: dict[str, Path]) -> Path:
     directory.mkdir(parents=True, exist_ok=True)
     index = directory / "index.html"
     with folder_lock(directory):
-        _refuse_foreign(directory, ["index.html", *figures])
+        earlier = _earlier_report(directory, ["index.html", *figures])
         files = write_together({**{directory / name: drawn.read_bytes() for name, drawn in figures.items()},
                                 index: text})  # all or none: a full disk leaves the earlier report whole
-        remove_previous(directory, keep=files)
+        remove_previous(earlier, keep=files)
         write_manifest(directory, files)
     return index
 
 
-def _refuse_foreign(directory: Path, names: list[str]) -> None:
-    """Stop (UsageError) where a file the report would write is there and is not pendfmu's."""
+def _earlier_report(directory: Path, names: list[str]) -> set[Path]:
+    """The files of the report written earlier into `directory` (manifest.py); stop
+    (UsageError) where a file the new report would write is there and is not pendfmu's."""
     from pendfmu.errors import UsageError
     from pendfmu.report.manifest import earlier_report_files, is_pendfmu_page
 
@@ -99,3 +100,4 @@ def _refuse_foreign(directory: Path, names: list[str]) -> None:
         if (directory / name).exists() and directory / name not in ours:
             raise UsageError(f"{directory / name}: exists and was not written by a pendfmu report; give another "
                              f"folder or remove it")
+    return ours

@@ -75,14 +75,14 @@ def is_pendfmu_page(path: Path) -> bool:
     return re.search(r"<title>pendfmu (fit report|comparison)", head) is not None
 
 
-def remove_previous(directory: Path, keep: Iterable[Path] = ()) -> list[Path]:
-    """Remove the files of the report written earlier into `directory` but those in `keep`
-    (the new report's, already in place); returns the removed."""
+def remove_previous(earlier: Iterable[Path], keep: Iterable[Path] = ()) -> list[Path]:
+    """Remove the files of the report written earlier (`earlier`, as earlier_report_files
+    found them before the new report was written) but those in `keep` (the new report's,
+    already in place); returns the removed. The manifest is then written anew."""
     kept = {Path(path) for path in keep}
-    removed = [path for path in earlier_report_files(directory) if path not in kept]
+    removed = sorted(Path(path) for path in earlier if Path(path) not in kept)
     for path in removed:
         path.unlink(missing_ok=True)
-    (directory / MANIFEST).unlink(missing_ok=True)
     return removed
 
 
