@@ -12,6 +12,7 @@ pulling in the others. Each module defines its narrow classes on these bases::
     |   +-- ParameterFileError     parameters
     |   +-- ParameterError         simulator.component
     |   +-- SspError               ssp
+    |   +-- OutputError (OSError)  atomic: a file cannot be written (a full disk, a read-only folder)
     +-- Suspicious                 exit 3 under --strict: the data look wrong (fitting.plausibility)
     +-- Interrupted                exit 130: a fit stopped by Ctrl-C, with its best values (fitting.checkpoint)
     +-- FMUError (RuntimeError)    exit 4: an FMU refused a call (which instance, function,
@@ -52,6 +53,13 @@ class OptionError(BadInput):
         super().__init__(f"{option}: {detail}")
         self.option = option
         self.detail = detail
+
+
+class OutputError(BadInput, OSError):
+    """A file pendfmu was asked to write cannot be written (a full disk, a read-only folder):
+    the message names the file and the system's reason; the previous file, if any, is
+    unchanged (atomic.py). An OSError too, so that code handling a failed write as one
+    still does."""
 
 
 class Suspicious(PendfmuError):

@@ -142,8 +142,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"pendfmu {args.command}: interrupted", file=sys.stderr)
         return 130
-    except Exception as error:  # an internal failure: say so, keep the details on demand
-        print(f"pendfmu {args.command}: internal failure: {type(error).__name__}: {error}", file=sys.stderr)
-        if args.debug or os.environ.get("PENDFMU_DEBUG"):
-            traceback.print_exc()
-        return 1
+    except OSError as error:  # the system refused a file (a full disk, a folder made read-only): not pendfmu's bug
+        if error.filename is None:
+            return _internal_failure(args, error)
+        print(f"pendfmu {args.command}: error: {error.filename}: {error.strerror or error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except Exception as error:
+        return _internal_failure(args, error)
+
+
+def _internal_failure(args: argparse.Namespace, error: Exception) -> int:
+    """An internal failure: said in one line, the details on demand (--debug, PENDFMU_DEBUG)."""
+    print(f"pendfmu {args.command}: internal failure: {type(error).__name__}: {error}", file=sys.stderr)
+    if args.debug or os.environ.get("PENDFMU_DEBUG"):
+        traceback.print_exc()
+    return 1

@@ -30,7 +30,6 @@ earlier set); `carried(path)` reads them back for `pendfmu check`.
 
 from __future__ import annotations
 
-import os
 import re
 import zipfile
 from dataclasses import dataclass, field
@@ -38,7 +37,9 @@ from pathlib import Path, PurePosixPath
 
 from lxml import etree
 
+from pendfmu.atomic import write_atomically
 from pendfmu.errors import BadInput
+from pendfmu.escaping import xml_text
 
 FOLDER = "extra/org.fmi-standard.fmi-ls-ref"
 MANIFEST = f"{FOLDER}/fmi-ls-manifest.xml"
@@ -67,7 +68,7 @@ def manifest_xml(related: list[tuple[str, str, str, str]]) -> bytes:
         entry.set("source", source)
         entry.set("role", role)
         entry.set("type", kind)
-        entry.set("description", description)
+        entry.set("description", xml_text(description))
     return etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True)
 
 
@@ -166,9 +167,8 @@ def _replace_folder(fmu: Path, members: dict[str, bytes]) -> None:
     """Rewrite the FMU with `members` in place of whatever it had under FOLDER."""
     from pendfmu.export.fmu import _copy_info
 
-    partial = fmu.with_name(f".{fmu.name}.{os.getpid()}.ref.part")
-    try:
-        with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as dst:
+    def write(out) -> None:
+        with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as dst:
             for info in src.infolist():
                 if not info.filename.startswith(FOLDER + "/"):
                     dst.writestr(_copy_info(info), src.read(info))
@@ -177,9 +177,8 @@ def _replace_folder(fmu: Path, members: dict[str, bytes]) -> None:
                 info.compress_type = zipfile.ZIP_DEFLATED
                 info.external_attr = 0o644 << 16
                 dst.writestr(info, data)
-        os.replace(partial, fmu)
-    finally:
-        partial.unlink(missing_ok=True)
+
+    write_atomically(fmu, writer=write)
 
 
 def _now_tuple():

@@ -21,11 +21,8 @@ description's FMI version and the interface (CLASSES).
 
 from __future__ import annotations
 
-import atexit
 import ctypes
 import itertools
-import shutil
-import tempfile
 import weakref
 from pathlib import Path
 
@@ -37,6 +34,7 @@ from fmpy.fmi3 import FMU3Model, FMU3Slave
 from fmpy.logging import addLoggerProxy
 
 from pendfmu.errors import BadInput, FMUError
+from pendfmu.tempfolders import temporary_folder
 
 WARNING = 1
 """fmi2Status and fmi3Status: a call that returns more than Warning failed."""
@@ -66,9 +64,8 @@ def unpacked_fmu(name: str, fmu: str | Path | None = None, copy: int = 0) -> tup
     md = model_description(path)
     key = f"{path.resolve()}:{md.guid}:{copy}"
     if key not in _UNPACKED:
-        directory = Path(tempfile.mkdtemp(prefix=f"pendfmu-{name}-"))
+        directory = temporary_folder(f"pendfmu-{name}-")
         extract(str(path), str(directory))
-        atexit.register(shutil.rmtree, directory, True)
         _UNPACKED[key] = (directory, md)
     return _UNPACKED[key]
 
