@@ -22,7 +22,6 @@ and the binary finds the start file through FMI 3.0's resourcePath.
 from __future__ import annotations
 
 import datetime
-import os
 import uuid
 import zipfile
 from collections.abc import Mapping
