@@ -1,0 +1,172 @@
+"""Every check that calls into an FMU's binary runs here: in a child process, with limits.
+
+An FMU is code from elsewhere. A segfault, an abort, an endless loop or a runaway allocation
+in its fmi2DoStep would take `pendfmu check` (or a whole pytest session) down with it, and a
+model description may ask for more work than any run can do. So the checks run as jobs
+(`Job`: a row label and a function returning rows) in a child process forked from this one:
+the child inherits the unpacked FMU, the target and the jobs themselves, so nothing goes to
+it but a job's index and nothing comes back but that job's rows (pickled CheckResults).
+
+One child runs job after job while it lives (the stimulus the first job found is there for
+the next): the cost is one fork per battery, not one per call. Each job gets at most
+`time_limit` seconds (`pendfmu check --time-limit`, default TIME_LIMIT), and the child may
+allocate at most MEMORY_LIMIT bytes beyond what it inherited (RLIMIT_AS; a runaway
+allocation becomes a MemoryError in the child, or a crash of the FMU). A child that dies (a
+signal, an exit) or outlives the limit makes its job one FAIL row naming the signal or the
+limit; a fresh child goes on with the next job. Ctrl-C in the parent ends the child too.
+
+Where fork is not available (Windows), the jobs run in this process, uncontained.
+"""
+
+from __future__ import annotations
+
+import faulthandler
+import multiprocessing
+import signal
+from collections.abc import Callable, Iterator, Sequence
+
+from pendfmu.check.driver import BUDGET
+from pendfmu.check.fmu import FAIL, CheckResult
+
+TIME_LIMIT = 300.0
+"""Seconds one check group may take (the longest of the FMI standard's Reference FMUs, Roberts in
+Model Exchange, needs about a tenth of it on a slow machine)."""
+MEMORY_LIMIT = 2 << 30
+"""Bytes a child may allocate beyond what it inherited from the parent."""
+KILL_WAIT = 5.0
+"""Seconds a child is given to be reaped after it was killed or its pipe closed."""
+
+Job = tuple[str, Callable[[], list[CheckResult]]]
+"""(label of the row a failure becomes, the work: a function returning the check's rows)."""
+
+
+def run_contained(jobs: Sequence[Job], time_limit: float = TIME_LIMIT) -> Iterator[list[CheckResult]]:
+    """The rows of each job in turn, each job run in a child process (the module's docstring):
+    a crash or a hang of the job is its one FAIL row."""
+    if "fork" not in multiprocessing.get_all_start_methods():
+        for label, work in jobs:
+            yield _rows_of(label, work)
+        return
+    child = None
+    try:
+        for index, (label, _) in enumerate(jobs):
+            child = child or _Child(jobs)
+            rows = child.run(index, time_limit)
+            if rows is None:  # it died or hung: the job's row says how, and the next job gets a new child
+                rows = [child.failure(label, time_limit)]
+                child.kill()
+                child = None
+            yield rows
+        if child is not None:
+            child.close()
+            child = None
+    finally:
+        if child is not None:  # interrupted (Ctrl-C) or abandoned: no waiting for it
+            child.kill()
+
+
+def run_all(jobs: Sequence[Job], time_limit: float = TIME_LIMIT) -> list[CheckResult]:
+    """Every job's rows, in order (run_contained)."""
+    return [row for rows in run_contained(jobs, time_limit) for row in rows]
+
+
+def _rows_of(label: str, work: Callable[[], list[CheckResult]]) -> list[CheckResult]:
+    """The job's rows (its own budget of steps, driver.BUDGET); a check that raises is a
+    failed row with its reason, not a crash."""
+    BUDGET.start()
+    try:
+        return work()
+    except MemoryError:
+        return [CheckResult(label, FAIL, "memory limit", f"{label} needed more than the {MEMORY_LIMIT / 2**30:g} GiB "
+                                                         f"a check may allocate (the FMU or its planned work)")]
+    except Exception as error:
+        return [CheckResult(label, FAIL, "check failed", f"{type(error).__name__}: {error}")]
+
+
+class _Child:
+    """A forked process that runs the jobs it was forked with, one index at a time."""
+
+    def __init__(self, jobs: Sequence[Job]):
+        context = multiprocessing.get_context("fork")
+        self.connection, theirs = context.Pipe()
+        self.process = context.Process(target=_serve, args=(jobs, theirs, self.connection), daemon=True,
+                                       name="pendfmu-check")
+        self.process.start()
+        theirs.close()
+        self.timed_out = False
+
+    def run(self, index: int, time_limit: float) -> list[CheckResult] | None:
+        """The rows of job `index`, or None when the child died or did not answer in time."""
+        try:
+            self.connection.send(index)
+            if self.connection.poll(time_limit):
+                return self.connection.recv()
+            self.timed_out = True
+        except (EOFError, OSError):  # the child is gone (its pipe closed with it)
+            pass
+        return None
+
+    def failure(self, label: str, time_limit: float) -> CheckResult:
+        """The FAIL row of a job whose child died or hung."""
+        if self.timed_out:
+            return CheckResult(label, FAIL, f"no answer in {time_limit:g} s",
+                               f"{label} did not finish within the time limit of {time_limit:g} s (--time-limit): "
+                               f"the FMU hung in a call or works too long; its process was killed, the other checks "
+                               f"went on in a new one")
+        self.process.join(KILL_WAIT)
+        code = self.process.exitcode
+        how = _signal_name(-code) if code is not None and code < 0 else f"exit code {code}"
+        return CheckResult(label, FAIL, f"crashed ({how})",
+                           f"the FMU crashed the check's process with {how} during {label}; the other checks went "
+                           f"on in a new one")
+
+    def close(self) -> None:
+        """End a child that answered: it leaves at the closed pipe."""
+        self.connection.close()
+        self.process.join(KILL_WAIT)
+        self.kill()
+
+    def kill(self) -> None:
+        self.connection.close()
+        if self.process.is_alive():
+            self.process.kill()
+        self.process.join(KILL_WAIT)
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
+def _serve(jobs: Sequence[Job], connection, parents) -> None:
+    """The child: limit its memory, then run each job whose index arrives until the pipe closes
+    (`parents`, the parent's end it inherited, closed first: else the pipe never closes)."""
+    parents.close()
+    faulthandler.disable()  # a crash is the job's row; a Python traceback would read as the checker's own
+    _limit_memory()
+    while True:
+        try:
+            index = connection.recv()
+        except (EOFError, OSError):
+            return
+        label, work = jobs[index]
+        connection.send(_rows_of(label, work))
+
+
+def _limit_memory() -> None:
+    """RLIMIT_AS: what this process has mapped (inherited) plus MEMORY_LIMIT."""
+    import resource  # POSIX only, as fork is
+
+    try:
+        with open("/proc/self/statm") as handle:
+            mapped = int(handle.read().split()[0]) * resource.getpagesize()
+    except (OSError, ValueError, IndexError):
+        return  # not Linux: the time limit still holds
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    wanted = mapped + MEMORY_LIMIT
+    if hard != resource.RLIM_INFINITY:
+        wanted = min(wanted, hard)
+    if soft == resource.RLIM_INFINITY or wanted < soft:
+        resource.setrlimit(resource.RLIMIT_AS, (wanted, hard))
