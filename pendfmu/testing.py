@@ -323,7 +323,8 @@ def assert_valid(fmu, interface: str | None = None):
     from pendfmu.check.battery import group_jobs
 
     target = _target(fmu)
-    _fail_on(target, static.description_rows(target) + _contained(group_jobs(target, static, _kinds(target, interface))))
+    binary = _contained(group_jobs(target, static, _kinds(target, interface)))
+    _fail_on(target, static.description_rows(target) + binary)
 
 
 def assert_deterministic(fmu, interface: str | None = None, *, stop=None, step=None, recording=None):

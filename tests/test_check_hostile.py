@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import re
+import signal
 import subprocess
 import sys
 import textwrap
@@ -82,6 +83,37 @@ def test_a_dostep_that_never_returns_is_a_fail_row_naming_the_time_limit(hostile
     assert done.stdout.count("no answer in 1 s") == 2
     refused, _ = pendfmu("check", hostile["hang"], "--time-limit", "0", bound=10)
     assert refused.returncode == 2 and "--time-limit 0.0: needs a finite value > 0" in refused.stderr
+
+
+@pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGKILL], ids=["Ctrl-C", "kill -9"])
+def test_a_check_whose_fmu_hangs_ends_on_ctrl_c_or_kill_and_its_child_with_it(hostile, how):
+    with subprocess.Popen([sys.executable, "-m", "pendfmu", "check", hostile["hang"], "--only", "events"],
+                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                          env={**os.environ, "PYTHONPATH": str(REPO)}) as process:
+        try:
+            time.sleep(3)  # well inside the hanging fmi2DoStep
+            children = Path(f"/proc/{process.pid}/task/{process.pid}/children").read_text().split()
+            process.send_signal(how)
+            process.wait(timeout=10)
+        finally:
+            process.kill()
+    assert process.returncode == (130 if how == signal.SIGINT else -signal.SIGKILL)
+    assert len(children) == 1
+    deadline = time.monotonic() + 5  # the child, spinning in fmi2DoStep, is gone too
+    while Path(f"/proc/{children[0]}").exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not Path(f"/proc/{children[0]}").exists() or "Z" in Path(f"/proc/{children[0]}/stat").read_text().split()[2]
+
+
+def test_the_help_states_the_default_time_limit():
+    import argparse
+
+    from pendfmu.check.contain import TIME_LIMIT
+    from pendfmu.cli import check
+
+    parser = argparse.ArgumentParser()
+    check.add_arguments(parser)
+    assert f"(default {TIME_LIMIT:g}: pendfmu.check.contain.TIME_LIMIT)" in " ".join(parser.format_help().split())
 
 
 def test_the_pytest_plugin_fails_the_crashing_and_the_hanging_test_and_the_session_goes_on(hostile, tmp_path):
@@ -164,7 +196,8 @@ def test_no_interface_and_a_range_fmi_forbids_are_failures(hostile):
     interface, over, outside = tables(done.stdout)
     assert rows(interface)["static: interfaces"] == "FAIL"
     assert "declares no interface (FMI requires a <CoSimulation> or <ModelExchange> element" in interface
-    for table, problem in ((over, "variable k: min 10 exceeds max 0"), (outside, "variable k: start 20 outside [2, 10]")):
+    for table, problem in ((over, "variable k: min 10 exceeds max 0"),
+                           (outside, "variable k: start 20 outside [2, 10]")):
         assert rows(table)["static: model description"] == "FAIL" and problem in table
 
 

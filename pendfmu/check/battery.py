@@ -57,7 +57,8 @@ def run_battery(path: str | Path, stop: float | None = None, step: float | None 
                 references = reference_mod.carried(target)
             except BadInput as error:  # the FMU's own references are broken: its failure
                 unreadable.append(CheckResult("reference: FMI-LS-REF", False, "unreadable", str(error)))
-        jobs += [(f"reference: {Path(ref.origin).name}", partial(_reference_rows, target, ref, atol, rtol, ttol, plot_dir))
+        jobs += [(f"reference: {Path(ref.origin).name}",
+                  partial(_reference_rows, target, ref, atol, rtol, ttol, plot_dir))
                  for ref in references if target.interfaces]
     for rows in progress(run_contained(jobs, time_limit), f"checking {Path(path).name}", total=len(jobs),
                          label=lambda rows: rows[0].name if rows else ""):

@@ -13,26 +13,31 @@ the next): the cost is one fork per battery, not one per call. Each job gets at 
 allocate at most MEMORY_LIMIT bytes beyond what it inherited (RLIMIT_AS; a runaway
 allocation becomes a MemoryError in the child, or a crash of the FMU). A child that dies (a
 signal, an exit) or outlives the limit makes its job one FAIL row naming the signal or the
-limit; a fresh child goes on with the next job. Ctrl-C in the parent ends the child too.
+limit; a fresh child goes on with the next job. Ctrl-C in the parent ends the child too, and
+on Linux so does the parent's death by any signal (no hung FMU spins on as an orphan).
 
 Where fork is not available (Windows), the jobs run in this process, uncontained.
 """
 
 from __future__ import annotations
 
+import ctypes
 import faulthandler
 import multiprocessing
+import os
 import signal
 from collections.abc import Callable, Iterator, Sequence
 
 from pendfmu.check.driver import BUDGET
 from pendfmu.check.fmu import FAIL, CheckResult
 
-TIME_LIMIT = 300.0
-"""Seconds one check group may take (the longest of the FMI standard's Reference FMUs, Roberts in
-Model Exchange, needs about a tenth of it on a slow machine)."""
+TIME_LIMIT = 120.0
+"""Seconds one check group may take: the longest seen (the rollback check of the Reference
+FMUs' Roberts and of pendfmu's Pendulum in Model Exchange, default options) took 27 s on a
+2-core machine under a load of 10."""
 MEMORY_LIMIT = 2 << 30
 """Bytes a child may allocate beyond what it inherited from the parent."""
+PR_SET_PDEATHSIG = 1  # prctl(2): the signal a process gets when its parent dies
 KILL_WAIT = 5.0
 """Seconds a child is given to be reaped after it was killed or its pipe closed."""
 
@@ -81,6 +86,8 @@ def _rows_of(label: str, work: Callable[[], list[CheckResult]]) -> list[CheckRes
                                                          f"a check may allocate (the FMU or its planned work)")]
     except Exception as error:
         return [CheckResult(label, FAIL, "check failed", f"{type(error).__name__}: {error}")]
+    finally:
+        BUDGET.stop()
 
 
 class _Child:
@@ -89,8 +96,8 @@ class _Child:
     def __init__(self, jobs: Sequence[Job]):
         context = multiprocessing.get_context("fork")
         self.connection, theirs = context.Pipe()
-        self.process = context.Process(target=_serve, args=(jobs, theirs, self.connection), daemon=True,
-                                       name="pendfmu-check")
+        self.process = context.Process(target=_serve, args=(jobs, theirs, self.connection, os.getpid()),
+                                       daemon=True, name="pendfmu-check")
         self.process.start()
         theirs.close()
         self.timed_out = False
@@ -140,11 +147,14 @@ def _signal_name(number: int) -> str:
         return f"signal {number}"
 
 
-def _serve(jobs: Sequence[Job], connection, parents) -> None:
-    """The child: limit its memory, then run each job whose index arrives until the pipe closes
-    (`parents`, the parent's end it inherited, closed first: else the pipe never closes)."""
+def _serve(jobs: Sequence[Job], connection, parents, parent: int) -> None:
+    """The child: bound to its parent's life, limit its memory, then run each job whose index
+    arrives until the pipe closes (`parents`, the parent's end it inherited, closed first:
+    else the pipe never closes)."""
+    _die_with(parent)
     parents.close()
     faulthandler.disable()  # a crash is the job's row; a Python traceback would read as the checker's own
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle: it ends this child
     _limit_memory()
     while True:
         try:
@@ -153,6 +163,17 @@ def _serve(jobs: Sequence[Job], connection, parents) -> None:
             return
         label, work = jobs[index]
         connection.send(_rows_of(label, work))
+
+
+def _die_with(parent: int) -> None:
+    """Linux: SIGKILL this child when its parent dies (kill -9, a SIGTERM not handled), so that
+    no FMU hung in a call spins on as an orphan."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):  # not Linux: daemon children still end with a parent that exits
+        return
+    if os.getppid() != parent:  # the parent died before prctl took effect
+        os._exit(1)
 
 
 def _limit_memory() -> None:

@@ -50,14 +50,18 @@ class WorkLimit(PendfmuError, RuntimeError):
 
 
 class StepBudget:
-    """The communication steps left to the check group running in this process (contain.py
-    starts one per group)."""
+    """The communication steps left to the check group running in this process: contain.py
+    starts one per group and stops it after; outside a group (the pytest plugin's fmu_runner)
+    there is no cap."""
 
     def __init__(self):
-        self.left = MAX_GROUP_STEPS
+        self.left = math.inf
 
     def start(self) -> None:
         self.left = MAX_GROUP_STEPS
+
+    def stop(self) -> None:
+        self.left = math.inf
 
     def spend(self) -> None:
         self.left -= 1

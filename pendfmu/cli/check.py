@@ -2,13 +2,14 @@
 
 Static: the model description (fmpy's validate_fmu; min <= start <= max; a Co-Simulation or
 Model Exchange interface; a modelIdentifier that is a C identifier, else no library of the FMU
-is loaded), every function FMI 2.0 or 3.0 requires exported by the binary, the GUID (instantiation token) checked at instantiation, the declared
-capabilities working. Dynamic, for Co-Simulation and Model Exchange (whichever the FMU has):
-misuse answered with an error status (run in child processes: a crash is a FAIL), the events
-the stimulus shows, two fresh instances and a reset instance giving identical outputs, FMU
-state rollback (around events too) and serialization reproducing a run bit for bit, step-size
-convergence (h, h/2, h/4) within --step-rtol or at the --order stated, and finite outputs over
-each input's declared range, else by decades up to --input-limit times its nominal.
+is loaded), every function FMI 2.0 or 3.0 requires exported by the binary, the GUID
+(instantiation token) checked at instantiation, the declared capabilities working. Dynamic,
+for Co-Simulation and Model Exchange (whichever the FMU has): misuse answered with an error
+status, the events the stimulus shows, two fresh instances and a reset instance giving
+identical outputs, FMU state rollback (around events too) and serialization reproducing a run
+bit for bit, step-size convergence (h, h/2, h/4) within --step-rtol or at the --order stated,
+and finite outputs over each input's declared range, else by decades up to --input-limit
+times its nominal.
 
 Without --input the stimulus is searched for (pendfmu/check/stimulus.py): each input over its
 declared range, else around its start value at 1, 10, 100, ... times its nominal up to
@@ -33,7 +34,7 @@ FMUs ship them: extra/org.fmi-standard.fmi-ls-ref/<Model>_out.csv) are used.
 Every check that loads the FMU's binary runs in a child process (pendfmu/check/contain.py): a
 crash (SIGSEGV, an abort) or a check group that outlives --time-limit is a FAIL row naming the
 signal or the limit, and the other checks still run. A child may allocate 2 GiB beyond what it
-inherits, and the model description's default experiment plans at most 100000 communication
+inherits, and the model description's default experiment plans at most 20000 communication
 steps a run (a row "static: planned work" says what was capped).
 """
 
@@ -75,7 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "reference's median sample interval)")
     parser.add_argument("--plot", metavar="DIR", help="write a PNG per variable outside its tube into DIR")
     parser.add_argument("--time-limit", type=float, metavar="SECONDS", help="seconds each check group may take in "
-                        "its child process before it is a FAIL row and the other checks go on (default 300: "
+                        "its child process before it is a FAIL row and the other checks go on (default 120: "
                         "pendfmu.check.contain.TIME_LIMIT); a child may also allocate at most 2 GiB")
 
 

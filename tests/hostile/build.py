@@ -33,7 +33,8 @@ REF = "extra/org.fmi-standard.fmi-ls-ref"
 BOMB = ('<?xml version="1.0"?>\n<!DOCTYPE b [<!ENTITY a "aaaaaaaaaa">'
         + "".join(f'<!ENTITY {chr(98 + i)} "{("&" + chr(97 + i) + ";") * 10}">' for i in range(9))
         + ']>\n<fmiReferences>&j;</fmiReferences>\n')
-MANIFEST = ('<?xml version="1.0" encoding="UTF-8"?>\n<fmiReferences xmlns:fmi-ls="http://fmi-standard.org/fmi-ls-manifest"'
+MANIFEST = ('<?xml version="1.0" encoding="UTF-8"?>\n'
+            '<fmiReferences xmlns:fmi-ls="http://fmi-standard.org/fmi-ls-manifest"'
             ' fmi-ls:fmi-ls-name="org.fmi-standard.fmi-ls-ref" fmi-ls:fmi-ls-version="1.0.0-alpha.1"'
             ' fmi-ls:fmi-ls-description="Layered Standard providing information on related files included in an'
             ' FMU.">\n  <Related source="Hostile_out.csv" role="result" type="text/csv" description="y"/>\n'
