@@ -330,8 +330,10 @@ def assert_valid(fmu, interface: str | None = None):
 def assert_deterministic(fmu, interface: str | None = None, *, stop=None, step=None, recording=None):
     """Two fresh instances, same inputs: outputs identical bit for bit, and moving (identical
     constants say nothing: that is inconclusive and fails too)."""
+    from pendfmu.check.contain import Job
+
     target = _target(fmu, stop, step, recording)
-    jobs = [(f"determinism: fresh instances {kind}", partial(_fresh_instances, target, kind))
+    jobs = [Job(f"determinism: fresh instances {kind}", partial(_fresh_instances, target, kind))
             for kind in _kinds(target, interface)]
     _fail_on(target, _contained(jobs))
 

@@ -57,8 +57,8 @@ def run_battery(path: str | Path, stop: float | None = None, step: float | None 
                 references = reference_mod.carried(target)
             except BadInput as error:  # the FMU's own references are broken: its failure
                 unreadable.append(CheckResult("reference: FMI-LS-REF", False, "unreadable", str(error)))
-        jobs += [(f"reference: {Path(ref.origin).name}",
-                  partial(_reference_rows, target, ref, atol, rtol, ttol, plot_dir))
+        jobs += [Job(f"reference: {Path(ref.origin).name}",
+                     partial(_reference_rows, target, ref, atol, rtol, ttol, plot_dir))
                  for ref in references if target.interfaces]
     for rows in progress(run_contained(jobs, time_limit), f"checking {Path(path).name}", total=len(jobs),
                          label=lambda rows: rows[0].name if rows else ""):
@@ -75,7 +75,7 @@ def group_jobs(target: Target, module, kinds) -> list[Job]:
     misuse in sequence.py) where it has one, else one job running module.run(target, kind)."""
     if hasattr(module, "jobs"):
         return [job for kind in kinds for job in module.jobs(target, kind)]
-    return [(f"{_label(module)} {kind}", partial(module.run, target, kind)) for kind in kinds]
+    return [Job(f"{_label(module)} {kind}", partial(module.run, target, kind)) for kind in kinds]
 
 
 def _reference_rows(target: Target, ref, atol, rtol, ttol, plot_dir) -> list[CheckResult]:

@@ -8,7 +8,10 @@ the child inherits the unpacked FMU, the target and the jobs themselves, so noth
 it but a job's index and nothing comes back but that job's rows (pickled CheckResults).
 
 One child runs job after job while it lives (the stimulus the first job found is there for
-the next): the cost is one fork per battery, not one per call. Each job gets at most
+the next): the cost is a few forks per battery, not one per call. Jobs share a child only
+when they say so (`Job.process`): a misuse (sequence.py) can leave an FMU broken beyond its
+instance (a pythonfmu binary's embedded interpreter corrupted, to crash a later check), so
+the misuses of each interface have a child of their own. Each job gets at most
 `time_limit` seconds (`pendfmu check --time-limit`, default TIME_LIMIT), and the child may
 allocate at most MEMORY_LIMIT bytes beyond what it inherited (RLIMIT_AS; a runaway
 allocation becomes a MemoryError in the child, or a crash of the FMU). A child that dies (a
@@ -26,7 +29,9 @@ import faulthandler
 import multiprocessing
 import os
 import signal
+import warnings
 from collections.abc import Callable, Iterator, Sequence
+from typing import NamedTuple
 
 from pendfmu.check.driver import BUDGET
 from pendfmu.check.fmu import FAIL, CheckResult
@@ -41,24 +46,34 @@ PR_SET_PDEATHSIG = 1  # prctl(2): the signal a process gets when its parent dies
 KILL_WAIT = 5.0
 """Seconds a child is given to be reaped after it was killed or its pipe closed."""
 
-Job = tuple[str, Callable[[], list[CheckResult]]]
-"""(label of the row a failure becomes, the work: a function returning the check's rows)."""
+
+
+class Job(NamedTuple):
+    """One unit of checking: `label` names the row a crash or a hang becomes, `work` returns
+    the check's rows; consecutive jobs of the same `process` share a child, another starts
+    a fresh one."""
+    label: str
+    work: Callable[[], list[CheckResult]]
+    process: str = "checks"
 
 
 def run_contained(jobs: Sequence[Job], time_limit: float = TIME_LIMIT) -> Iterator[list[CheckResult]]:
     """The rows of each job in turn, each job run in a child process (the module's docstring):
     a crash or a hang of the job is its one FAIL row."""
     if "fork" not in multiprocessing.get_all_start_methods():
-        for label, work in jobs:
-            yield _rows_of(label, work)
+        for job in jobs:
+            yield _rows_of(job.label, job.work)
         return
     child = None
     try:
-        for index, (label, _) in enumerate(jobs):
-            child = child or _Child(jobs)
+        for index, job in enumerate(jobs):
+            if child is not None and child.process_name != job.process:
+                child.close()
+                child = None
+            child = child or _Child(jobs, job.process)
             rows = child.run(index, time_limit)
             if rows is None:  # it died or hung: the job's row says how, and the next job gets a new child
-                rows = [child.failure(label, time_limit)]
+                rows = [child.failure(job.label, time_limit)]
                 child.kill()
                 child = None
             yield rows
@@ -91,14 +106,20 @@ def _rows_of(label: str, work: Callable[[], list[CheckResult]]) -> list[CheckRes
 
 
 class _Child:
-    """A forked process that runs the jobs it was forked with, one index at a time."""
+    """A forked process that runs the jobs it was forked with, one index at a time (those of
+    `process_name`)."""
 
-    def __init__(self, jobs: Sequence[Job]):
+    def __init__(self, jobs: Sequence[Job], process_name: str):
+        self.process_name = process_name
         context = multiprocessing.get_context("fork")
         self.connection, theirs = context.Pipe()
         self.process = context.Process(target=_serve, args=(jobs, theirs, self.connection, os.getpid()),
                                        daemon=True, name="pendfmu-check")
-        self.process.start()
+        with warnings.catch_warnings():
+            # Python 3.12 warns of fork beside threads: the child runs only its jobs, and one
+            # that waits on a lock a lost thread held ends at the time limit
+            warnings.simplefilter("ignore", DeprecationWarning)
+            self.process.start()
         theirs.close()
         self.timed_out = False
 
@@ -161,8 +182,7 @@ def _serve(jobs: Sequence[Job], connection, parents, parent: int) -> None:
             index = connection.recv()
         except (EOFError, OSError):
             return
-        label, work = jobs[index]
-        connection.send(_rows_of(label, work))
+        connection.send(_rows_of(jobs[index].label, jobs[index].work))
 
 
 def _die_with(parent: int) -> None:

@@ -3,8 +3,9 @@
 The misuses, each on a fresh instance: a step before initialization (Co-Simulation: fmi2DoStep
 or fmi3DoStep; Model Exchange: EnterContinuousTimeMode outside event mode), an unknown value
 reference, a non-finite input (NaN, then +Inf) followed by a step, and a fixed parameter set
-while stepping. Each misuse is a job of its own (`jobs`) for pendfmu/check/contain.py: a misuse
-that crashes the process (a segfault) is that misuse's FAIL row, and the others still run.
+while stepping. Each misuse is a job of its own (`jobs`) for pendfmu/check/contain.py, in a
+child process the other checks do not share: a misuse that crashes the process (a segfault)
+is that misuse's FAIL row, and the others still run.
 
 FMI makes avoiding a misuse the importer's duty and leaves detecting it, and what to do with
 a non-finite input, to the FMU: a misuse accepted, an error without a message, or a NaN
@@ -26,8 +27,10 @@ ERROR = 2  # fmi2Discard or worse answers a misuse
 
 
 def jobs(target: Target, kind: str) -> list[Job]:
-    """One job per misuse, its row named like the job."""
-    return [(f"sequence: {case} {kind}", partial(case_rows, target, kind, case)) for case in CASES]
+    """One job per misuse, its row named like the job; the misuses of an interface share a
+    child process of their own (contain.py: what a misuse breaks must not reach other checks)."""
+    return [Job(f"sequence: {case} {kind}", partial(case_rows, target, kind, case), f"sequence {kind}")
+            for case in CASES]
 
 
 def case_rows(target: Target, kind: str, case: str) -> list[CheckResult]:
