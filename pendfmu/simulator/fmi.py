@@ -69,9 +69,9 @@ class UnsafeFMU(BadInput):
 
 def unsafe_names(description) -> list[str]:
     """What in a model description names a file outside what FMI allows, each in words: every
-    interface's and build configuration's modelIdentifier must be a C identifier (FMI 2.0
-    section 2.2.1, FMI 3.0 section 2.4.1: it names the binary and prefixes its functions), and
-    every source file and include folder must stay inside the sources folder."""
+    interface's and build configuration's modelIdentifier must be a C identifier (FMI 2.0 and
+    3.0: a name in C syntax that names the binary and prefixes its functions), and every source
+    file and include folder must stay inside the sources folder."""
     named = [(f"<{element} modelIdentifier>", getattr(interface, "modelIdentifier", None))
              for element, interface in (("CoSimulation", description.coSimulation),
                                         ("ModelExchange", description.modelExchange),
