@@ -13,6 +13,7 @@ pulling in the others. Each module defines its narrow classes on these bases::
     |   +-- ParameterError         simulator.component
     |   +-- SspError               ssp
     |   +-- OutputError (OSError)  atomic: a file cannot be written (a full disk, a read-only folder)
+    |   +-- UnsafeFMU              a file name FMI does not allow: nothing loaded (simulator.fmi)
     +-- Suspicious                 exit 3 under --strict: the data look wrong (fitting.plausibility)
     +-- Interrupted                exit 130: a fit stopped by Ctrl-C, with its best values (fitting.checkpoint)
     +-- FMUError (RuntimeError)    exit 4: an FMU refused a call (which instance, function,
@@ -21,7 +22,8 @@ pulling in the others. Each module defines its narrow classes on these bases::
     +-- BuildError (RuntimeError)  exit 5: pendfmu cannot build its FMUs on this machine (no C
     |                              compiler, or the compiler refused the sources)
     +-- StiffModel (RuntimeError)  a model too stiff for `pendfmu check`'s own Model Exchange
-                                   integrator (check.driver): a limit of the check, not the FMU's
+    |                              integrator (check.driver): a limit of the check, not the FMU's
+    +-- WorkLimit (RuntimeError)   a check group past its cap of communication steps (check.driver)
 
 Anything else reaching the command line is an internal failure (exit 1).
 """

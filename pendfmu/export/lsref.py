@@ -228,7 +228,7 @@ def carried(path: str | Path) -> Shipped:
     Related file of role "result" (a CSV) with the stimulus beside it (X_out.csv: X_in.csv),
     and each experiment of a pendfmu 0.x experiments.xml. Raises BadInput for a manifest
     whose files cannot be told apart (manifest_problems' errors); a file it names that the
-    FMU lacks is a note."""
+    FMU lacks is a note. BadInput too for a member that is not UTF-8 text or not XML."""
     with zipfile.ZipFile(path) as archive:
         if MANIFEST not in archive.namelist():
             return Shipped()
@@ -256,9 +256,18 @@ def carried(path: str | Path) -> Shipped:
         for member in results:
             if member not in listed:
                 stimulus = _stimulus(member) if _stimulus(member) in archive.namelist() else None
-                shipped.results.append(Carried(member, archive.read(member).decode(), stimulus,
-                                               archive.read(stimulus).decode() if stimulus else None))
+                shipped.results.append(Carried(member, _text(archive, member), stimulus,
+                                               _text(archive, stimulus) if stimulus else None))
         return shipped
+
+
+def _text(archive: zipfile.ZipFile, member: str) -> str:
+    """A member's text; BadInput naming the FMU and the member when it is not UTF-8."""
+    try:
+        return archive.read(member).decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise BadInput(f"{archive.filename}: {member}: not UTF-8 text (byte {error.start}: "
+                       f"{error.object[error.start:error.start + 1]!r})") from None
 
 
 def _stimulus(result: str) -> str | None:
@@ -269,12 +278,13 @@ def _stimulus(result: str) -> str | None:
 def _experiments(archive: zipfile.ZipFile, member: str, notes: list[str]) -> list[Carried]:
     """The reference results and stimuli of pendfmu 0.x's experiments.xml (<Experiments>
     <Experiment><Stimuli source/><References source/></Experiment>); a file it names that
-    the FMU lacks is a note. An experiment file in another format is a note too."""
+    the FMU lacks is a note. An experiment file in another XML format is a note too; one that
+    is not XML is BadInput."""
     try:
         root = etree.fromstring(archive.read(member))
-    except etree.XMLSyntaxError:
-        root = None
-    if root is None or root.tag != "Experiments":
+    except etree.XMLSyntaxError as error:  # broken (or an entity bomb): the FMU's failure, named
+        raise BadInput(f"{archive.filename}: {member}: not XML: {error}") from None
+    if root.tag != "Experiments":
         notes.append(f"{member}: an experiment file pendfmu check does not read")
         return []
     found = []
@@ -287,5 +297,5 @@ def _experiments(archive: zipfile.ZipFile, member: str, notes: list[str]) -> lis
         if ref is None or (stimuli is not None and stim is None):
             notes.append(f"{member} names a file the FMU does not contain")
             continue
-        found.append(Carried(ref, archive.read(ref).decode(), stim, archive.read(stim).decode() if stim else None))
+        found.append(Carried(ref, _text(archive, ref), stim, _text(archive, stim) if stim else None))
     return found
