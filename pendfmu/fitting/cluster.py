@@ -114,6 +114,8 @@ class ActorGroup:
         """(cost, failures, reason) of each candidate: one chunk per actor (a generation's
         candidates cost about the same), then a failed chunk's candidates one by one."""
         results: list = [None] * len(candidates)
+        if self.gone:  # a lost worker that its nanny restarted is back at a new address
+            self.add_actors()
         chunks = [list(c) for c in np.array_split(np.arange(len(candidates)), len(self.actors)) if len(c)]
         again = [k for chunk in self._calls(chunks, candidates, results, "in the search") for k in chunk]
         while again:
@@ -168,10 +170,9 @@ def dask_map(client, function: Callable, jobs: Sequence, done: Callable[[], None
     futures = client.map(function, jobs, pure=False)
     index = {future: k for k, future in enumerate(futures)}
     results: dict[int, object] = {}
-    pending, copied, last, longest = set(futures), set(), time.monotonic(), 0.0
+    pending, copied, gaps, last = set(futures), set(), [], time.monotonic()
     while pending:
-        limit = max(STRAGGLER_FLOOR, STRAGGLER_FACTOR * longest) if results else None
-        finished = client.sync(_first_done, pending, limit)
+        finished = client.sync(_first_done, pending, _task_limit(gaps))
         if not finished:
             copies = _copies(client, function, jobs, pending - copied, index, copied)
             if copies and incidents is not None:
@@ -179,7 +180,8 @@ def dask_map(client, function: Callable, jobs: Sequence, done: Callable[[], None
                                  f"the others")
             pending |= copies
             continue
-        longest, last = max(longest, time.monotonic() - last), time.monotonic()
+        gaps.append(time.monotonic() - last)
+        last = time.monotonic()
         for future, outcome in finished.items():
             k = index[future]
             if k not in results:
@@ -188,6 +190,16 @@ def dask_map(client, function: Callable, jobs: Sequence, done: Callable[[], None
         pending = {f for f in pending if index[f] not in results}
     client.cancel([f for f in index if not f.done()])
     return [results[k] for k in range(len(jobs))]
+
+
+def _task_limit(gaps: list[float]) -> float | None:
+    """How long a map waits for its next task before it takes the tasks left for stuck: the
+    straggler rule on the typical time between two tasks' ends (the first, which includes
+    the workers' start-up, only while it is the one known); no limit before any has ended."""
+    if not gaps:
+        return None
+    typical = float(np.median(gaps[1:] if len(gaps) > 1 else gaps))
+    return max(STRAGGLER_FLOOR, STRAGGLER_FACTOR * typical)
 
 
 async def _first_done(futures: set, timeout: float | None) -> dict:

@@ -120,18 +120,20 @@ class WorkerPool:
 
     def map(self, jobs: Iterable) -> Iterator:
         """`function` of each job, in the jobs' order, each as soon as it and those before it
-        are done; a job that raised raises here, one given up is `failed(job, reason)`."""
+        are done; a job that raised raises here, one given up is `failed(job, reason)`. A map
+        left unfinished (an interrupt, a job's error) closes the pool: its workers hold jobs
+        nobody waits for."""
+        if not self._workers:
+            raise ValueError("the worker pool is closed")
         run = _Run(list(jobs))
-        finished = False
         try:
             while run.next < len(run.jobs):
                 self._hand_out(run)
                 self._collect(run)
                 yield from run.ready()
-            finished = True
         finally:
-            if not finished:  # abandoned (an interrupt, an error): no worker keeps a stale job
-                self._replace([w for w in self._workers if w.job is not None])
+            if run.next < len(run.jobs):
+                self.close()
 
     def _hand_out(self, run: _Run) -> None:
         idle = deque(w for w in self._workers if w.job is None)
@@ -224,6 +226,8 @@ class _Run:
         self.next = 0
 
     def ready(self) -> Iterator:
+        """The results due, in order (counted before each is handed back: a caller that stops
+        after the last has left nothing unfinished)."""
         while self.next in self.done:
-            yield self.done.pop(self.next)
             self.next += 1
+            yield self.done.pop(self.next - 1)
