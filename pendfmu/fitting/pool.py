@@ -14,14 +14,18 @@ worker (a kill -9 or the OOM killer strike once); if that worker dies too, the j
 up: `failed(job, reason)` gives its result (a penalized cost, a failed refit), the reason
 naming the signal, and the other jobs go on.
 
-The workers ignore Ctrl-C, SIGTERM and SIGHUP, which are the main process's to handle (a
-terminal, `timeout` or a scheduler may send them to the whole process group); the pool stops
-them with SIGKILL, and a worker whose parent has gone ends at its pipe's end of file.
+Signals: the workers ignore Ctrl-C, which a terminal sends to the whole process group and
+which is the main process's to handle. SIGTERM and SIGHUP end a worker (the main process's
+handler, inherited through fork, is put back to the default): a pool that outlived its owner
+is stopped with SIGTERM by multiprocessing at exit, and a worker that ignored it hung the exit.
+The pool stops its workers with SIGKILL; a worker whose parent has gone ends at its pipe's end
+of file.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import multiprocessing.util
 import os
 import signal
 from collections import deque
@@ -30,7 +34,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 
 TRIES = 2  # a job whose worker died is run once more; a second death gives it up
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM) + ((signal.SIGHUP,) if hasattr(signal, "SIGHUP") else ())
+ENDING_SIGNALS = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
 
 
 class WorkerDied(RuntimeError):
@@ -47,8 +51,9 @@ class _Worker:
 def _serve(pipe: Connection, function: Callable, start: Callable | None, start_args: tuple) -> None:
     """A worker's life: its start, then jobs from the pipe until None or the pipe's end.
     A start that raises is reported as every job's result, so the parent raises it."""
-    for number in STOP_SIGNALS:
-        signal.signal(number, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for number in ENDING_SIGNALS:
+        signal.signal(number, signal.SIG_DFL)
     started = None
     try:
         if start is not None:
@@ -108,8 +113,12 @@ class WorkerPool:
         self._context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
         self._target = (function, start, start_args)
         self._failed = failed
-        self._workers = [self._spawn() for _ in range(max(1, workers))]
+        self._workers: list[_Worker] = []
         self.deaths: list[str] = []  # why each worker that died while holding a job died
+        # stopped when the pool is collected, or at exit before multiprocessing joins its children
+        multiprocessing.util.Finalize(self, _stop_all, args=(self._workers,), exitpriority=10)
+        for _ in range(max(1, workers)):
+            self._workers.append(self._spawn())
 
     def _spawn(self) -> _Worker:
         mine, theirs = self._context.Pipe()
@@ -198,21 +207,25 @@ class WorkerPool:
 
     @staticmethod
     def _stop(worker: _Worker) -> None:
-        if worker.process.is_alive():
-            worker.process.kill()
-        worker.process.join()
-        worker.pipe.close()
+        _stop_all([worker])
 
     def close(self) -> None:
-        for worker in self._workers:
-            self._stop(worker)
-        self._workers = []
+        _stop_all(self._workers)
+        self._workers.clear()
 
     def __enter__(self) -> WorkerPool:
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _stop_all(workers: list[_Worker]) -> None:
+    for worker in workers:
+        if worker.process.is_alive():
+            worker.process.kill()
+        worker.process.join()
+        worker.pipe.close()
 
 
 class _Run:
