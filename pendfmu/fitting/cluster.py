@@ -33,6 +33,7 @@ from pendfmu.fitting.workers import CandidateEvaluator, penalized
 
 STRAGGLER_FACTOR = 10.0
 STRAGGLER_FLOOR = 5.0  # seconds: the round trips of small calls vary by far more than 10 times
+RETURN_WAIT = 30.0  # seconds a search with no worker left waits for one (a nanny restarts a killed worker in 1-2 s)
 
 
 class WorkersLost(PendfmuError, RuntimeError):
@@ -91,8 +92,7 @@ class ActorGroup:
     def add_actors(self) -> None:
         """An actor on each worker that has none and has not failed this fit (one that a
         nanny restarted comes back at a new address)."""
-        workers = [w for w in sorted(self.client.scheduler_info()["workers"])
-                   if w not in self.actors and w not in self.gone]
+        workers = self._fresh_workers()
         with self.client.as_current():  # the actors' proxies bind to this client, not a default one
             futures = [self.client.submit(CandidateEvaluator, self.residuals, actor=True, workers=[w],
                                           allow_other_workers=False, pure=False) for w in workers]
@@ -103,6 +103,20 @@ class ActorGroup:
                     self._drop(worker, outcome, "while its actor was made")
         if not self.actors:
             raise WorkersLost(f"no worker of the Dask cluster answered ({'; '.join(self.incidents[-3:])})")
+
+    def _fresh_workers(self) -> list[str]:
+        """The workers without an actor that have not failed this fit; with no actor left,
+        the first to (re)join within RETURN_WAIT."""
+        deadline = time.monotonic() + RETURN_WAIT
+        while True:
+            listed = self.client.scheduler_info()["workers"]
+            fresh = [w for w in sorted(listed) if w not in self.actors and w not in self.gone]
+            if fresh or self.actors or time.monotonic() > deadline:
+                return fresh
+            try:
+                self.client.wait_for_workers(len(listed) + 1, timeout=deadline - time.monotonic())
+            except TimeoutError:
+                pass
 
     def _drop(self, worker: str, outcome: tuple[str, object], when: str) -> None:
         self.actors.pop(worker, None)
