@@ -20,11 +20,11 @@ fmus: $(STAMP)
 demo: fmus
 	$(PY) -m pendfmu demo
 
-# Two pytest-xdist workers, a module whole on one (tests/conftest.py): the fits' own worker pools
+# Two pytest-xdist workers, a module whole on one (--dist loadfile; tests/conftest.py): the fits' own worker pools
 # leave a core idle in their serial phases (local refinement, validation, subprocesses), which
 # the other worker fills.
 test: tools fmus
-	$(PY) -m pytest -n 2 --dist loadgroup
+	$(PY) -m pytest -n 2 --dist loadfile
 
 # Debian's packages for tests: valgrind (memcheck), mingw-w64 (the FMUs' win64 DLLs) and wine
 # (runs them, tests/test_win64.py), GNU Octave and unzip (the exported Simulink script),
