@@ -89,7 +89,7 @@ def test_bounded_stiction_is_the_same_set_for_two_seeds(fitted):
     """The Furuta free decay only bounds T_Sp (method "bounded"): the same set for seeds
     0 and 1, by realdata_cases.same_set (method, value and ends within 1 % relative)."""
     runs = [fitted("rotary-inverted-pendulum", seed) for seed in (0, 1)]
-    assert runs[0].document["interval_method"]["T_Sp"] == "bounded"
+    assert runs[0].document["interval_method"]["T_Sp"].startswith("bounded")  # on this marked fit: ", widened to the halves"
     assert_same_sets(runs)
 
 
