@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from pendfmu.errors import PendfmuError, UsageError
+from pendfmu.jsontext import parse_json
 
 
 class Interrupted(PendfmuError):
@@ -82,10 +83,10 @@ class Checkpoint:
     def load(cls, path: str | Path, expected: str) -> Checkpoint:
         path = Path(path)
         try:
-            document = json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as error:
+            document = parse_json(path.read_text())
+        except (OSError, ValueError) as error:  # not UTF-8, not JSON, nested too deep, a huge number
             raise UsageError(f"{path}: not a readable checkpoint ({error})") from None
-        if document.get("pendfmu_checkpoint") != 1:
+        if not isinstance(document, dict) or document.get("pendfmu_checkpoint") != 1:
             raise UsageError(f"{path}: not a pendfmu checkpoint")
         if document.get("fingerprint") != expected:
             raise UsageError(f"{path}: this checkpoint belongs to another fit (other recordings, parameters, "
