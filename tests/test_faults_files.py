@@ -278,7 +278,7 @@ def test_json_that_breaks_the_parser_or_the_numbers_is_exit_2_naming_the_file(tm
     documents = {"sidecar": (sidecar, nested(100_000)), "params": (bad, '{"parameters": ' + nested(100_000) + "}"),
                  "result": (bad, nested(100_000)), "integer": (bad, '{"parameters": {"m_c": ' + "9" * 5000 + "}}"),
                  "resolution": (sidecar, json.dumps({"signals": {"x": {"resolution": 1e308}}})),
-                 "checkpoint": (bad, nested(100_000))}
+                 "checkpoint": (bad, '{"pendfmu_checkpoint": 1, "fingerprint": "f", "costs": ' + nested(100_000) + "}")}
     path, text = documents[case]
     path.write_text(text)
     commands = {"params": ["export", "--params", str(bad), "--out", str(tmp_path / "o")],
