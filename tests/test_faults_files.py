@@ -272,17 +272,20 @@ def cart_run(tmp_path) -> Path:
     return recording
 
 
-@pytest.mark.parametrize("case", ["sidecar", "params", "result", "integer", "resolution"])
+@pytest.mark.parametrize("case", ["sidecar", "params", "result", "integer", "resolution", "checkpoint"])
 def test_json_that_breaks_the_parser_or_the_numbers_is_exit_2_naming_the_file(tmp_path, capsys, cart_run, case):
     sidecar, bad = cart_run.with_suffix(".json"), tmp_path / "bad.json"
     documents = {"sidecar": (sidecar, nested(100_000)), "params": (bad, '{"parameters": ' + nested(100_000) + "}"),
                  "result": (bad, nested(100_000)), "integer": (bad, '{"parameters": {"m_c": ' + "9" * 5000 + "}}"),
-                 "resolution": (sidecar, json.dumps({"signals": {"x": {"resolution": 1e308}}}))}
+                 "resolution": (sidecar, json.dumps({"signals": {"x": {"resolution": 1e308}}})),
+                 "checkpoint": (bad, '{"pendfmu_checkpoint": 1, "fingerprint": "f", "costs": ' + nested(100_000) + "}")}
     path, text = documents[case]
     path.write_text(text)
     commands = {"params": ["export", "--params", str(bad), "--out", str(tmp_path / "o")],
                 "integer": ["export", "--params", str(bad), "--out", str(tmp_path / "o")],
-                "result": ["report", str(bad), "--out", str(tmp_path / "o")]}
+                "result": ["report", str(bad), "--out", str(tmp_path / "o")],
+                "checkpoint": ["fit", "cart", str(cart_run), "--out", str(tmp_path / "r.json"), "--checkpoint", str(bad),
+                               "--resume"]}
     argv = commands.get(case, ["fit", "cart", str(cart_run), "--out", str(tmp_path / "r.json"), "--no-global"])
     assert main(argv) == 2
     line = one_line_naming(capsys.readouterr().err, str(path))

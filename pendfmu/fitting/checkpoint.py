@@ -33,6 +33,7 @@ import numpy as np
 
 from pendfmu.atomic import write_atomically
 from pendfmu.errors import PendfmuError, UsageError
+from pendfmu.jsontext import parse_json
 
 SAVE_PERIOD = 30.0
 """Seconds between the saves of a running search's checkpoint. A save of a long search's
@@ -167,8 +168,8 @@ class Checkpoint:
     def load(cls, path: str | Path, expected: str) -> Checkpoint:
         path = Path(path)
         try:
-            document = json.loads(path.read_text())
-        except (OSError, ValueError, RecursionError) as error:
+            document = parse_json(path.read_text())
+        except (OSError, ValueError) as error:  # not UTF-8, not JSON, nested too deep, a huge number
             raise UsageError(f"{path}: not a readable checkpoint ({error})") from None
         if not isinstance(document, dict) or document.get("pendfmu_checkpoint") != 1:
             raise UsageError(f"{path}: not a pendfmu checkpoint")
