@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from pendfmu.errors import PendfmuError
+from pendfmu.errors import WorkersFailed
 from pendfmu.fitting.residuals import Residuals
 from pendfmu.fitting.workers import CandidateEvaluator, penalized
 
@@ -36,7 +36,7 @@ STRAGGLER_FLOOR = 5.0  # seconds: the round trips of small calls vary by far mor
 RETURN_WAIT = 30.0  # seconds a search with no worker left waits for one (a nanny restarts a killed worker in 1-2 s)
 
 
-class WorkersLost(PendfmuError, RuntimeError):
+class WorkersLost(WorkersFailed):
     """Every worker of the Dask cluster was lost or stopped answering."""
 
 

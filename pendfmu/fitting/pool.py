@@ -33,11 +33,13 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 
+from pendfmu.errors import WorkersFailed
+
 TRIES = 2  # a job whose worker died is run once more; a second death gives it up
 ENDING_SIGNALS = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
 
 
-class WorkerDied(RuntimeError):
+class WorkerDied(WorkersFailed):
     """A job killed every worker it ran on, and its caller gave no `failed` result for it."""
 
 
