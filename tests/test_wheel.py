@@ -10,8 +10,9 @@ version number: the wheel's metadata and ``pendfmu.__version__`` agree.
 It needs git (to list the tracked files, as a clean clone would have them). The fresh venv
 sees the test environment's packages through a path file, not its own copies of them (pip
 installing numpy, scipy, pandas, matplotlib... took 100 s of the suite's time): the wheel is
-installed without them, and `pip check` then says whether the wheel's declared dependencies
-are met by those packages — a requirement the wheel forgot, or one it names wrongly, fails.
+installed without them; `pip check` then says whether the wheel's declared dependencies are
+met by those packages (one named wrongly fails), and every package the installed pendfmu
+imports must be among them or theirs (one the wheel forgot fails).
 """
 
 from __future__ import annotations
@@ -114,6 +115,51 @@ def test_wheel_installs_builds_and_simulates_like_the_checkout(installed, tmp_pa
     installed_run = (work / "installed.csv").read_bytes()
     assert installed_run == (work / "checkout.csv").read_bytes()
     assert pd.read_csv(work / "installed.csv")["x"].iloc[-1] > 0.01  # the drive moved the cart
+
+
+CLOSURE = """
+import ast, importlib.metadata as m, re, sys
+from pathlib import Path
+import pendfmu
+imported = set()
+for source in Path(pendfmu.__file__).parent.rglob("*.py"):
+    for node in ast.walk(ast.parse(source.read_bytes())):
+        if isinstance(node, ast.Import):
+            imported |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0:
+            imported.add(node.module.split(".")[0])
+owners = m.packages_distributions()
+declared, todo = set(), [("pendfmu", None)]
+while todo:
+    name, extras = todo.pop()  # extras None: pendfmu's own, all of them (Dask, the test tools)
+    try:
+        requirements = m.requires(name) or []
+    except m.PackageNotFoundError:  # a requirement for another platform (pip check holds the rest)
+        continue
+    for requirement in requirements:
+        extra = re.search(r"extra\\s*==\\s*['\\"]([^'\\"]+)", requirement)
+        if extra and extras is not None and extra.group(1) not in extras:
+            continue
+        wanted, asked = re.match(r"([A-Za-z0-9_.-]+)(?:\\[([^]]*)\\])?", requirement).groups()
+        wanted = wanted.lower().replace("_", "-")
+        if wanted not in declared:
+            declared.add(wanted)
+            todo.append((wanted, {e.strip() for e in (asked or "").split(",")}))
+for name in sorted(imported - set(sys.stdlib_module_names) - {"pendfmu", "__future__"}):
+    dists = {d.lower().replace("_", "-") for d in owners.get(name, [])}
+    if not dists & declared:
+        print(name, sorted(dists))
+"""
+
+
+def test_every_package_the_installed_copy_imports_is_a_declared_dependency(installed, tmp_path):
+    """A dependency the wheel forgot would import here from the test environment's packages:
+    each top-level package that an import statement anywhere in the installed pendfmu names
+    (lazy ones inside functions too) must belong to a distribution the wheel requires (its
+    extras included: Dask, pytest for the plugin), or one those require."""
+    undeclared = _run([str(installed / "python"), "-c", CLOSURE], cwd=tmp_path,
+                      env=_clean_env(tmp_path / "cache")).stdout
+    assert undeclared == "", f"imported, not declared: {undeclared}"
 
 
 def test_build_out_writes_the_fmus_where_asked(installed, tmp_path):
