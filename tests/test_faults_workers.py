@@ -342,6 +342,131 @@ def test_a_dask_worker_frozen_from_the_start_leaves_the_result_undisturbed(clust
     assert any("stopped answering while its actor was made" in note for note in incidents), incidents
 
 
+@contextmanager
+def mortal_workers(cluster):
+    """A client of the cluster for a block that kills its workers, which their nannies start
+    again; the block ends when the cluster has its two workers again. A LocalCluster closes
+    for good, 15 s after a worker's loss (distributed.deploy.lost-worker-timeout), the nanny
+    of a worker then being started again (killed once more, maybe by the next test): the
+    cluster lost both that way, so the delay is longer than the module's life here."""
+    import dask
+    from distributed import Client
+
+    with dask.config.set({"distributed.deploy.lost-worker-timeout": "1h"}):
+        with Client(cluster.scheduler_address, set_as_default=False) as client:
+            try:
+                yield client
+            finally:
+                with within(60):
+                    client.wait_for_workers(2)
+
+
+@contextmanager
+def hooked_workers(cluster, owner: type, name: str, hook):
+    """mortal_workers, with `hook(original, *args)` in place of the method `owner.name` in
+    the cluster's worker processes, those its nannies start in place of a dead one included
+    (a worker plugin: a patch made in this process never reaches them). `hook` travels by
+    value: a function defined in a test, not at a module's top level."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class Hooked(WorkerPlugin):
+        def setup(self, worker):
+            self.original = getattr(owner, name)
+            setattr(owner, name, lambda *args: hook(self.original, *args))
+
+        def teardown(self, worker):
+            setattr(owner, name, self.original)
+
+    with mortal_workers(cluster) as client:
+        client.register_plugin(Hooked(), name="hooked")
+        try:
+            yield client
+        finally:
+            client.wait_for_workers(2)
+            client.unregister_worker_plugin("hooked")
+
+
+def test_a_dask_worker_killed_while_the_actors_are_made_leaves_the_result_undisturbed(cluster, cart_recording,
+                                                                                      tmp_path, undisturbed,
+                                                                                      monkeypatch):
+    """The first actor to start being made kills its worker (kill -9) in its __init__: which
+    of the two is whichever creates the flag file first, and exactly one does. The other
+    worker's actor is made; the killed one's never comes (it waits for its worker), and its
+    nanny starts the worker again at a new address, where the search makes an actor at a
+    later generation (the straggler floor is 1 s here, 5 s in use). Before issue 28 the fit
+    waited for the lost actor for ever."""
+    from pendfmu.fitting import cluster as survival
+    from pendfmu.fitting.workers import CandidateEvaluator
+
+    monkeypatch.setattr(survival, "STRAGGLER_FLOOR", 1.0)
+
+    flag = tmp_path / "killed"
+
+    def dies_once(original, evaluator, residuals):
+        try:
+            os.close(os.open(flag, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except FileExistsError:
+            return original(evaluator, residuals)
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    out = tmp_path / "fit.json"
+    with hooked_workers(cluster, CandidateEvaluator, "__init__", dies_once), within(WAIT):
+        assert main(fit_command(cart_recording, out, "--scheduler", cluster.scheduler_address)) == 0
+    assert flag.exists()
+    result, incidents = without_incidents(out)
+    assert result == undisturbed[0]
+    assert len(incidents) == 1 and "was lost (it left the cluster) while its actor was made" in incidents[0], \
+        incidents
+
+
+def test_a_candidate_that_segfaults_its_dask_worker_is_penalized_with_the_reason(cluster, cart_recording, tmp_path):
+    """The Dask twin of the local workers' case: one candidate of the first generation (the
+    only one with u[0] > 0.98 in this search) segfaults the worker that simulates it, then
+    the worker that runs it again, and is penalized; the nannies start both workers again and
+    the fit goes on. Before issue 28 its chunk ran again as a task, which killed worker
+    after worker until the scheduler gave up: "internal failure: KilledWorker"."""
+    from pendfmu.fitting.residuals import Residuals
+
+    def crashing(original, residuals, u):
+        if u[0] > 0.98:
+            import ctypes
+            import faulthandler
+
+            faulthandler.disable()  # no traceback dump from the dying worker
+            ctypes.string_at(0)
+        return original(residuals, u)
+
+    out = tmp_path / "fit.json"
+    with hooked_workers(cluster, Residuals, "sum_of_squares", crashing), within(WAIT):
+        assert main(["fit", "cart", str(cart_recording), "--seed", "8", "--generations", "2", "--uncertainty",
+                     "jacobian", "--scheduler", cluster.scheduler_address, "--out", str(out)]) == 0
+    notes = json.loads(out.read_text())["fit"]["notes"]
+    penalized = [n for n in notes if "simulations failed during the fit and were penalized" in n]
+    assert len(penalized) == 1 and penalized[0].startswith("1 simulations failed"), notes
+    assert ("the simulation did not come back: the Dask workers that ran it were lost or stopped answering, on each "
+            "of 2 tries") in penalized[0], notes
+
+
+def test_a_dask_job_that_kills_every_worker_is_given_up_and_the_others_end(cluster, tmp_path, monkeypatch):
+    """The bootstrap's map on Dask, with the local pool's jobs (`killing`): the scheduler runs
+    job 2 again after its worker's death; job 4 kills every worker it runs on and is given
+    up, and every other job ends with its result, also one queued behind job 4 on a worker
+    it killed (the scheduler blames those too: it runs again alone). The scheduler gives a
+    task up after 2 deaths here (allowed-failures 1; 3 by default). Before issue 28 the map
+    raised KilledWorker: the whole bootstrap failed."""
+    from pendfmu.fitting.bootstrap import parallel_map
+
+    monkeypatch.setattr(cluster.scheduler, "allowed_failures", 1)
+    jobs = [(n, tmp_path / "killed-once") for n in range(7)]
+    incidents: list[str] = []
+    with mortal_workers(cluster), within(60):
+        results = parallel_map(killing, jobs, scheduler=cluster.scheduler_address,
+                               failed=lambda job, reason: f"job {job[0]}: {reason}", incidents=incidents)
+    assert results == [0, 1, 4, 9, "job 4: it killed every Dask worker that ran it, with other jobs and alone "
+                                   "(KilledWorker)", 25, 36]
+    assert incidents == []
+
+
 # -- the checkpoint's path
 
 @pytest.mark.parametrize("name", ["out", "recording", "sidecar", "params", "other"])
