@@ -5,8 +5,9 @@ of the short cart recording, and compares its result with the same fit undisturb
 killed with kill -9 in the middle of the search; a hook that segfaults the worker for some
 candidates (penalized with the reason); SIGTERM, then `--resume`; kill -9 after a periodic
 checkpoint, then `--resume`; a Dask cluster with one worker frozen by SIGSTOP, from the start
-and in the middle of a search. The undisturbed fit runs on one process here, which gives
-the same result as two workers or a Dask cluster (test_distributed.py).
+and in the middle of a search, one killed while the actors are made, candidates and
+bootstrap jobs that kill their Dask workers. The undisturbed fit runs on one process here,
+which gives the same result as two workers or a Dask cluster (test_distributed.py).
 """
 
 from __future__ import annotations
@@ -271,7 +272,7 @@ def test_kill_9_after_a_periodic_checkpoint_loses_only_what_came_after(cart_reco
     assert calls["n"] == undisturbed[1] - cached
 
 
-# -- Dask: a frozen worker
+# -- Dask: a worker frozen, killed, or crashed by its work
 
 @pytest.fixture(scope="module")
 def cluster():
@@ -344,11 +345,12 @@ def test_a_dask_worker_frozen_from_the_start_leaves_the_result_undisturbed(clust
 
 @contextmanager
 def mortal_workers(cluster):
-    """A client of the cluster for a block that kills its workers, which their nannies start
-    again; the block ends when the cluster has its two workers again. A LocalCluster closes
-    for good, 15 s after a worker's loss (distributed.deploy.lost-worker-timeout), the nanny
-    of a worker then being started again (killed once more, maybe by the next test): the
-    cluster lost both that way, so the delay is longer than the module's life here."""
+    """A client of the cluster for a block whose workers get killed, their nannies starting
+    them again; the block ends when the cluster has its two workers again. A LocalCluster
+    closes a nanny for good if its worker's name is missing 15 s after a loss
+    (distributed.deploy.lost-worker-timeout), as when it is killed again then, by the same
+    test or the next: the cluster lost both its workers that way. Here that delay outlasts
+    the module."""
     import dask
     from distributed import Client
 
@@ -382,8 +384,9 @@ def hooked_workers(cluster, owner: type, name: str, hook):
         try:
             yield client
         finally:
-            client.wait_for_workers(2)
-            client.unregister_worker_plugin("hooked")
+            with within(60):
+                client.wait_for_workers(2)  # the plugin's teardown reaches the workers started again
+                client.unregister_worker_plugin("hooked")
 
 
 def test_a_dask_worker_killed_while_the_actors_are_made_leaves_the_result_undisturbed(cluster, cart_recording,
@@ -415,8 +418,8 @@ def test_a_dask_worker_killed_while_the_actors_are_made_leaves_the_result_undist
     assert flag.exists()
     result, incidents = without_incidents(out)
     assert result == undisturbed[0]
-    assert len(incidents) == 1 and "was lost (it left the cluster) while its actor was made" in incidents[0], \
-        incidents
+    # (with a 1 s floor, a bootstrap refit slower than the others on a busy machine may be copied: a note more)
+    assert any("was lost (it left the cluster) while its actor was made" in note for note in incidents), incidents
 
 
 def test_a_candidate_that_segfaults_its_dask_worker_is_penalized_with_the_reason(cluster, cart_recording, tmp_path):
@@ -452,19 +455,18 @@ def test_a_dask_job_that_kills_every_worker_is_given_up_and_the_others_end(clust
     job 2 again after its worker's death; job 4 kills every worker it runs on and is given
     up, and every other job ends with its result, also one queued behind job 4 on a worker
     it killed (the scheduler blames those too: it runs again alone). The scheduler gives a
-    task up after 2 deaths here (allowed-failures 1; 3 by default). Before issue 28 the map
-    raised KilledWorker: the whole bootstrap failed."""
+    task up after 2 deaths here (allowed-failures 1; 3 by default). `killing` travels by
+    reference: the workers import this module, on the sys.path multiprocessing gives them.
+    Before issue 28 the map raised KilledWorker: the whole bootstrap failed."""
     from pendfmu.fitting.bootstrap import parallel_map
 
     monkeypatch.setattr(cluster.scheduler, "allowed_failures", 1)
     jobs = [(n, tmp_path / "killed-once") for n in range(7)]
-    incidents: list[str] = []
     with mortal_workers(cluster), within(60):
         results = parallel_map(killing, jobs, scheduler=cluster.scheduler_address,
-                               failed=lambda job, reason: f"job {job[0]}: {reason}", incidents=incidents)
+                               failed=lambda job, reason: f"job {job[0]}: {reason}")
     assert results == [0, 1, 4, 9, "job 4: it killed every Dask worker that ran it, with other jobs and alone "
                                    "(KilledWorker)", 25, 36]
-    assert incidents == []
 
 
 # -- the checkpoint's path
