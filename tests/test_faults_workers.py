@@ -199,8 +199,10 @@ def test_a_job_whose_worker_died_runs_again_and_one_that_kills_every_worker_is_g
         results = parallel_map(killing, jobs, workers=2, failed=lambda job, reason: f"job {job[0]}: {reason}",
                                incidents=incidents)
     assert results == [0, 1, 4, 9, "job 4: its worker process died of SIGSEGV, on each of 2 tries", 25, 36]
-    assert incidents == ["3 worker process(es) died (last: its worker process died of SIGSEGV); their jobs ran "
-                         "again on fresh workers"]
+    # the last of the 3 deaths is job 4's second, or job 2's on a busy machine (its worker was slower to get there)
+    last = ("SIGSEGV", "SIGKILL (kill -9 or the out-of-memory killer)")
+    assert incidents in ([f"3 worker process(es) died (last: its worker process died of {signal_name}); their jobs "
+                          f"ran again on fresh workers"] for signal_name in last), incidents
 
 
 def test_the_reason_a_bootstrap_refit_failed_in_a_worker_reaches_the_note(cart_recording, monkeypatch):
