@@ -5,8 +5,9 @@ of the short cart recording, and compares its result with the same fit undisturb
 killed with kill -9 in the middle of the search; a hook that segfaults the worker for some
 candidates (penalized with the reason); SIGTERM, then `--resume`; kill -9 after a periodic
 checkpoint, then `--resume`; a Dask cluster with one worker frozen by SIGSTOP, from the start
-and in the middle of a search. The undisturbed fit runs on one process here, which gives
-the same result as two workers or a Dask cluster (test_distributed.py).
+and in the middle of a search, one killed while the actors are made, candidates and
+bootstrap jobs that kill their Dask workers. The undisturbed fit runs on one process here,
+which gives the same result as two workers or a Dask cluster (test_distributed.py).
 """
 
 from __future__ import annotations
@@ -198,8 +199,10 @@ def test_a_job_whose_worker_died_runs_again_and_one_that_kills_every_worker_is_g
         results = parallel_map(killing, jobs, workers=2, failed=lambda job, reason: f"job {job[0]}: {reason}",
                                incidents=incidents)
     assert results == [0, 1, 4, 9, "job 4: its worker process died of SIGSEGV, on each of 2 tries", 25, 36]
-    assert incidents == ["3 worker process(es) died (last: its worker process died of SIGSEGV); their jobs ran "
-                         "again on fresh workers"]
+    # the last of the 3 deaths is job 4's second, or job 2's on a busy machine (its worker was slower to get there)
+    last = ("SIGSEGV", "SIGKILL (kill -9 or the out-of-memory killer)")
+    assert incidents in ([f"3 worker process(es) died (last: its worker process died of {signal_name}); their jobs "
+                          f"ran again on fresh workers"] for signal_name in last), incidents
 
 
 def test_the_reason_a_bootstrap_refit_failed_in_a_worker_reaches_the_note(cart_recording, monkeypatch):
@@ -271,7 +274,7 @@ def test_kill_9_after_a_periodic_checkpoint_loses_only_what_came_after(cart_reco
     assert calls["n"] == undisturbed[1] - cached
 
 
-# -- Dask: a frozen worker
+# -- Dask: a worker frozen, killed, or crashed by its work
 
 @pytest.fixture(scope="module")
 def cluster():
@@ -340,6 +343,132 @@ def test_a_dask_worker_frozen_from_the_start_leaves_the_result_undisturbed(clust
     result, incidents = without_incidents(out)
     assert result == undisturbed[0]
     assert any("stopped answering while its actor was made" in note for note in incidents), incidents
+
+
+@contextmanager
+def mortal_workers(cluster):
+    """A client of the cluster for a block whose workers get killed, their nannies starting
+    them again; the block ends when the cluster has its two workers again. A LocalCluster
+    closes a nanny for good if its worker's name is missing 15 s after a loss
+    (distributed.deploy.lost-worker-timeout), as when it is killed again then, by the same
+    test or the next: the cluster lost both its workers that way. Here that delay outlasts
+    the module."""
+    import dask
+    from distributed import Client
+
+    with dask.config.set({"distributed.deploy.lost-worker-timeout": "1h"}):
+        with Client(cluster.scheduler_address, set_as_default=False) as client:
+            try:
+                yield client
+            finally:
+                with within(60):
+                    client.wait_for_workers(2)
+
+
+@contextmanager
+def hooked_workers(cluster, owner: type, name: str, hook):
+    """mortal_workers, with `hook(original, *args)` in place of the method `owner.name` in
+    the cluster's worker processes, those its nannies start in place of a dead one included
+    (a worker plugin: a patch made in this process never reaches them). `hook` travels by
+    value: a function defined in a test, not at a module's top level."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class Hooked(WorkerPlugin):
+        def setup(self, worker):
+            self.original = getattr(owner, name)
+            setattr(owner, name, lambda *args: hook(self.original, *args))
+
+        def teardown(self, worker):
+            setattr(owner, name, self.original)
+
+    with mortal_workers(cluster) as client:
+        client.register_plugin(Hooked(), name="hooked")
+        try:
+            yield client
+        finally:
+            with within(60):
+                client.wait_for_workers(2)  # the plugin's teardown reaches the workers started again
+                client.unregister_worker_plugin("hooked")
+
+
+def test_a_dask_worker_killed_while_the_actors_are_made_leaves_the_result_undisturbed(cluster, cart_recording,
+                                                                                      tmp_path, undisturbed,
+                                                                                      monkeypatch):
+    """The first actor to start being made kills its worker (kill -9) in its __init__: which
+    of the two is whichever creates the flag file first, and exactly one does. The other
+    worker's actor is made; the killed one's never comes (it waits for its worker), and its
+    nanny starts the worker again at a new address, where the search makes an actor at a
+    later generation (the straggler floor is 1 s here, 5 s in use). Before issue 28 the fit
+    waited for the lost actor for ever."""
+    from pendfmu.fitting import cluster as survival
+    from pendfmu.fitting.workers import CandidateEvaluator
+
+    monkeypatch.setattr(survival, "STRAGGLER_FLOOR", 1.0)
+
+    flag = tmp_path / "killed"
+
+    def dies_once(original, evaluator, residuals):
+        try:
+            os.close(os.open(flag, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except FileExistsError:
+            return original(evaluator, residuals)
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    out = tmp_path / "fit.json"
+    with hooked_workers(cluster, CandidateEvaluator, "__init__", dies_once), within(WAIT):
+        assert main(fit_command(cart_recording, out, "--scheduler", cluster.scheduler_address)) == 0
+    assert flag.exists()
+    result, incidents = without_incidents(out)
+    assert result == undisturbed[0]
+    # (with a 1 s floor, a bootstrap refit slower than the others on a busy machine may be copied: a note more)
+    assert any("was lost (it left the cluster) while its actor was made" in note for note in incidents), incidents
+
+
+def test_a_candidate_that_segfaults_its_dask_worker_is_penalized_with_the_reason(cluster, cart_recording, tmp_path):
+    """The Dask twin of the local workers' case: one candidate of the first generation (the
+    only one with u[0] > 0.98 in this search) segfaults the worker that simulates it, then
+    the worker that runs it again, and is penalized; the nannies start both workers again and
+    the fit goes on. Before issue 28 its chunk ran again as a task, which killed worker
+    after worker until the scheduler gave up: "internal failure: KilledWorker"."""
+    from pendfmu.fitting.residuals import Residuals
+
+    def crashing(original, residuals, u):
+        if u[0] > 0.98:
+            import ctypes
+            import faulthandler
+
+            faulthandler.disable()  # no traceback dump from the dying worker
+            ctypes.string_at(0)
+        return original(residuals, u)
+
+    out = tmp_path / "fit.json"
+    with hooked_workers(cluster, Residuals, "sum_of_squares", crashing), within(WAIT):
+        assert main(["fit", "cart", str(cart_recording), "--seed", "8", "--generations", "2", "--uncertainty",
+                     "jacobian", "--scheduler", cluster.scheduler_address, "--out", str(out)]) == 0
+    notes = json.loads(out.read_text())["fit"]["notes"]
+    penalized = [n for n in notes if "simulations failed during the fit and were penalized" in n]
+    assert len(penalized) == 1 and penalized[0].startswith("1 simulations failed"), notes
+    assert ("the simulation did not come back: the Dask workers that ran it were lost or stopped answering, on each "
+            "of 2 tries") in penalized[0], notes
+
+
+def test_a_dask_job_that_kills_every_worker_is_given_up_and_the_others_end(cluster, tmp_path, monkeypatch):
+    """The bootstrap's map on Dask, with the local pool's jobs (`killing`): the scheduler runs
+    job 2 again after its worker's death; job 4 kills every worker it runs on and is given
+    up, and every other job ends with its result, also one queued behind job 4 on a worker
+    it killed (the scheduler blames those too: it runs again alone). The scheduler gives a
+    task up after 2 deaths here (allowed-failures 1; 3 by default). `killing` travels by
+    reference: the workers import this module, on the sys.path multiprocessing gives them.
+    Before issue 28 the map raised KilledWorker: the whole bootstrap failed."""
+    from pendfmu.fitting.bootstrap import parallel_map
+
+    monkeypatch.setattr(cluster.scheduler, "allowed_failures", 1)
+    jobs = [(n, tmp_path / "killed-once") for n in range(7)]
+    with mortal_workers(cluster), within(60):
+        results = parallel_map(killing, jobs, scheduler=cluster.scheduler_address,
+                               failed=lambda job, reason: f"job {job[0]}: {reason}")
+    assert results == [0, 1, 4, 9, "job 4: it killed every Dask worker that ran it, with other jobs and alone "
+                                   "(KilledWorker)", 25, 36]
 
 
 # -- the checkpoint's path

@@ -4,7 +4,9 @@ or in the bootstrap costs the work it held, which runs again on the workers left
 fit goes on while one is left.
 
 Lost: a call to an actor whose worker has gone fails at once (CommClosedError, "Worker
-holding Actor was lost"); the scheduler reruns a lost worker's tasks by itself.
+holding Actor was lost"); the scheduler reruns a lost worker's tasks by itself, except an
+actor's creation, which waits for its own worker and so is taken for frozen (below), then
+named lost as its worker has left the cluster.
 
 Frozen: Dask waits for a silent worker for its worker-ttl (5 minutes by default), and a call
 to it never returns. Calls made together (a generation's chunks, the actors' creation, the
@@ -16,7 +18,9 @@ only slow loses its share and changes no result: a cost is the same wherever it 
 Retries: the candidates of a chunk whose worker was lost or frozen run again, one per call,
 on the actors left; one whose call fails again (a simulation that kills its worker, as a
 segfaulting FMU does) is penalized with the reason. A task that killed every worker it ran on
-ends in the scheduler's KilledWorker, and its job in `failed(job, reason)`.
+ends in the scheduler's KilledWorker; as the scheduler blames the tasks queued behind it on
+the same workers too, each job given KilledWorker runs once more alone, and one given it
+again ends in `failed(job, reason)`.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ class WorkersLost(WorkersFailed):
 
 
 FROZEN = ("frozen", None)
+LEFT = ("left", None)  # a call that never came back from a worker the cluster no longer lists
 
 
 async def _outcome(awaitable) -> tuple[str, object]:
@@ -74,6 +79,8 @@ def settle(client, awaitables: Sequence) -> list[tuple[str, object]]:
 
 def _failure(outcome: tuple[str, object]) -> str:
     state, error = outcome
+    if state == "left":
+        return "was lost (it left the cluster)"
     return "stopped answering" if state == "frozen" else f"was lost ({type(error).__name__})"
 
 
@@ -119,6 +126,8 @@ class ActorGroup:
                 pass
 
     def _drop(self, worker: str, outcome: tuple[str, object], when: str) -> None:
+        if outcome == FROZEN and worker not in self.client.scheduler_info()["workers"]:
+            outcome = LEFT  # killed while its actor was made: that task waits for its worker, never failing
         self.actors.pop(worker, None)
         self.futures.pop(worker, None)
         self.gone.add(worker)
@@ -179,14 +188,31 @@ def _awaitable(call: Callable):
 def dask_map(client, function: Callable, jobs: Sequence, done: Callable[[], None],
              failed: Callable[[object, str], object] | None, incidents: list[str] | None = None) -> list:
     """`function` over `jobs` as tasks, in order; `done` as each finishes. A task stuck on a
-    frozen worker is copied to the others (module docstring), which `incidents` is told; one
-    that killed every worker it ran on gives `failed(job, reason)`."""
-    futures = client.map(function, jobs, pure=False)
-    index = {future: k for k, future in enumerate(futures)}
+    frozen worker is copied to the others (module docstring), which `incidents` is told. A
+    job given KilledWorker runs once more, alone: the scheduler counts a worker's death
+    against every task the worker held, queued ones too, and a job queued behind one that
+    kills its workers was given KilledWorker with it. Given it alone too, it gives
+    `failed(job, reason)`."""
+    results = _tasks(client, function, jobs, done, incidents)
+    for k in [k for k, result in enumerate(results) if result is KILLED]:
+        (results[k],) = _tasks(client, function, [jobs[k]], done, incidents)
+        if results[k] is KILLED:
+            results[k] = _given_up(jobs[k], failed)
+            done()
+    return results
+
+
+KILLED = object()  # a task's result when the scheduler gave it up: it killed every worker it ran on
+
+
+def _tasks(client, function: Callable, jobs: Sequence, done: Callable[[], None], incidents: list[str] | None) -> list:
+    """dask_map's tasks, KILLED for those given KilledWorker. A result is released from the
+    cluster once taken: one kept there is computed again when its worker is lost."""
+    index = {future: k for k, future in enumerate(client.map(function, jobs, pure=False))}
     results: dict[int, object] = {}
-    pending, copied, gaps, last = set(futures), set(), [], time.monotonic()
+    pending, copied, gaps, last, waiters = set(index), set(), [], time.monotonic(), {}
     while pending:
-        finished = client.sync(_first_done, pending, _task_limit(gaps))
+        finished = client.sync(_first_done, pending, _task_limit(gaps), waiters)
         if not finished:
             copies = _copies(client, function, jobs, pending - copied, index, copied)
             if copies and incidents is not None:
@@ -197,11 +223,12 @@ def dask_map(client, function: Callable, jobs: Sequence, done: Callable[[], None
         gaps.append(time.monotonic() - last)
         last = time.monotonic()
         for future, outcome in finished.items():
-            k = index[future]
+            k = index.pop(future)
             if k not in results:
-                results[k] = _task_result(outcome, jobs[k], failed)
-                done()
-        pending = {f for f in pending if index[f] not in results}
+                results[k] = _task_result(outcome)
+                if results[k] is not KILLED:
+                    done()
+        pending = {f for f in pending if f in index and index[f] not in results}
     client.cancel([f for f in index if not f.done()])
     return [results[k] for k in range(len(jobs))]
 
@@ -216,16 +243,20 @@ def _task_limit(gaps: list[float]) -> float | None:
     return max(STRAGGLER_FLOOR, STRAGGLER_FACTOR * typical)
 
 
-async def _first_done(futures: set, timeout: float | None) -> dict:
-    """The futures that finish first (waiting at most `timeout` s) and their outcomes."""
-    tasks = {asyncio.ensure_future(_outcome(f)): f for f in futures}
-    finished, pending = await asyncio.wait(tasks, timeout=timeout, return_when=asyncio.FIRST_COMPLETED)
-    for task in pending:
-        task.cancel()
-    return {tasks[task]: task.result() for task in finished}
+async def _first_done(futures: set, timeout: float | None, waiters: dict) -> dict:
+    """The futures that finish first (waiting at most `timeout` s) and their outcomes. A
+    future's waiter (in `waiters`) lasts from one call to the next until the future ends, never
+    cancelled: the client's gathers of results are one request that waiters join, and a
+    waiter cancelled at the limit cancelled it for the others too (asyncio's CancelledError,
+    once a lost worker's results were being computed again)."""
+    for future in futures - waiters.keys():
+        waiters[future] = asyncio.ensure_future(_outcome(future))
+    finished, _ = await asyncio.wait([waiters[f] for f in futures], timeout=timeout,
+                                     return_when=asyncio.FIRST_COMPLETED)
+    return {f: waiters.pop(f).result() for f in [f for f in futures if waiters[f] in finished]}
 
 
-def _task_result(outcome: tuple[str, object], job, failed):
+def _task_result(outcome: tuple[str, object]):
     from distributed import KilledWorker
 
     state, value = outcome
@@ -233,7 +264,11 @@ def _task_result(outcome: tuple[str, object], job, failed):
         return value
     if not isinstance(value, KilledWorker):
         raise value  # the function's own error, as a local worker's
-    reason = "it killed every Dask worker that ran it (KilledWorker)"
+    return KILLED
+
+
+def _given_up(job, failed):
+    reason = "it killed every Dask worker that ran it, with other jobs and alone (KilledWorker)"
     if failed is None:
         raise WorkersLost(reason)
     return failed(job, reason)
