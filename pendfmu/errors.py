@@ -24,6 +24,10 @@ pulling in the others. Each module defines its narrow classes on these bases::
     +-- StiffModel (RuntimeError)  a model too stiff for `pendfmu check`'s own Model Exchange
     |                              integrator (check.driver): a limit of the check, not the FMU's
     +-- WorkLimit (RuntimeError)   a check group past its cap of communication steps (check.driver)
+    +-- WorkersFailed (RuntimeError)  exit 6: the worker processes or the Dask cluster failed
+        |                          the work (killed, every worker lost): the machine, not the input
+        +-- WorkerDied             a job killed every local worker it ran on (fitting.pool)
+        +-- WorkersLost            every Dask worker lost or frozen (fitting.cluster)
 
 Anything else reaching the command line is an internal failure (exit 1).
 """
@@ -104,7 +108,14 @@ class BuildError(PendfmuError, RuntimeError):
     refused them (the message holds what it printed)."""
 
 
+class WorkersFailed(PendfmuError, RuntimeError):
+    """The machine failed the work, not the input or pendfmu: a job killed every worker
+    process it ran on (a segfaulting FMU with no penalty to give it, the OOM killer), or
+    every worker of the Dask cluster was lost or stopped answering."""
+
+
 EXIT_BAD_INPUT = 2
 EXIT_SUSPICIOUS = 3
 EXIT_MODEL_FAILED = 4
 EXIT_BUILD_FAILED = 5
+EXIT_WORKERS_FAILED = 6

@@ -61,7 +61,11 @@ def fitted(tmp_path_factory):
     return get
 
 
-@pytest.mark.parametrize("name, method", [(name, "bootstrap") for name in TESTED] + [(LINE, "jacobian")])
+# EMPS's bootstrap (eight refits of the closed loop: 100 s on two busy cores) is make acceptance's;
+# its fit runs in make test through the example (test_examples_realdata.py, Jacobian intervals)
+@pytest.mark.parametrize("name, method", [pytest.param(name, "bootstrap", marks=pytest.mark.acceptance)
+                                          if name == "EMPS" else (name, "bootstrap") for name in TESTED]
+                         + [(LINE, "jacobian")])
 def test_fit_writes_its_result_with_intervals_in_range(fitted, name, method):
     """Exit code 0 (or 3, warnings under --strict), never 1 (an internal failure) or 2,
     the result file written, and every interval inside its parameter's physical range
