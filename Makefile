@@ -22,15 +22,17 @@ demo: fmus
 
 # Two pytest-xdist workers, a module whole on one (--dist loadfile; tests/conftest.py): the fits' own worker pools
 # leave a core idle in their serial phases (local refinement, validation, subprocesses), which
-# the other worker fills.
+# the other worker fills. --no-loadscope-reorder keeps conftest's order (the longest modules
+# first): xdist's own puts the modules with the most tests first, and the README's 4 tests,
+# 6 minutes, ran alone at the end.
 test: tools fmus
-	$(PY) -m pytest -n 2 --dist loadfile -m "not acceptance"
+	$(PY) -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m "not acceptance"
 
 # The runs marked acceptance (pytest.mark.acceptance in the test modules): the real-data examples and fits whose
 # single run takes minutes, each a repeat at full length of what make test checks on a shorter
 # path. Run before a release and after changing the fit's search, intervals or the examples.
 acceptance: tools fmus
-	$(PY) -m pytest -n 2 --dist loadfile -m acceptance
+	$(PY) -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m acceptance
 
 # Debian's packages for tests: valgrind (memcheck), mingw-w64 (the FMUs' win64 DLLs) and wine
 # (runs them, tests/test_win64.py), GNU Octave and unzip (the exported Simulink script),

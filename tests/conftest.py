@@ -12,11 +12,13 @@ import pytest
 from pendfmu.fmubuild import build_all
 
 
-FIRST = ("test_readme_runs.py", "test_examples_realdata.py", "test_realdata_fits.py", "test_identification.py",
-         "test_wheel.py", "test_loop_events.py")
-"""The longest modules (--durations of a whole run), started first: `make test` runs the
-modules on two pytest-xdist workers (--dist loadfile: a module whole on one, so that its
-module-scoped fits run once), and a long module started last would run alone at the end."""
+FIRST = ("test_readme_runs.py", "test_fit_options.py", "test_realdata_fits.py", "test_laws.py", "test_reference_fmus.py",
+         "test_examples_realdata.py", "test_foreign_fit.py", "test_identification.py", "test_friction_extras.py",
+         "test_check.py", "test_reference_mutants.py", "test_loop_events.py", "test_validation.py", "test_wheel.py")
+"""The longest modules, longest first (the sums of --durations=0 over a whole run), started
+first: `make test` runs the modules on two pytest-xdist workers (--dist loadfile: a module
+whole on one, so that its module-scoped fits run once; --no-loadscope-reorder: in this
+order), and a long module started last would run alone at the end."""
 
 
 def pytest_collection_modifyitems(config, items):

@@ -471,6 +471,22 @@ def test_a_dask_job_that_kills_every_worker_is_given_up_and_the_others_end(clust
                                    "(KilledWorker)", 25, 36]
 
 
+def test_a_dask_map_whose_workers_are_all_gone_ends_with_a_reason_not_a_wait(monkeypatch):
+    """With no worker left (here: none from the start), the bootstrap's map waits RETURN_WAIT
+    for one to join, then gives up with WorkersLost (exit 6 on the command line). Before, it
+    waited for ever: the first task's end, which nothing would compute."""
+    distributed = pytest.importorskip("distributed")
+    from pendfmu.fitting import cluster as survival
+    from pendfmu.fitting.bootstrap import parallel_map
+
+    monkeypatch.setattr(survival, "RETURN_WAIT", 1.0)
+    monkeypatch.setattr(survival, "POLL", 0.2)
+    with distributed.LocalCluster(n_workers=0, host="127.0.0.1", dashboard_address=":0") as empty, within(30):
+        with pytest.raises(survival.WorkersLost, match="every worker of the Dask cluster was lost, and none joined "
+                                                        "within 1 s"):
+            parallel_map(abs, [-1, -2], scheduler=empty.scheduler_address)
+
+
 # -- the checkpoint's path
 
 @pytest.mark.parametrize("name", ["out", "recording", "sidecar", "params", "other"])

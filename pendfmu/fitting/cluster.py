@@ -38,6 +38,7 @@ from pendfmu.fitting.workers import CandidateEvaluator, penalized
 STRAGGLER_FACTOR = 10.0
 STRAGGLER_FLOOR = 5.0  # seconds: the round trips of small calls vary by far more than 10 times
 RETURN_WAIT = 30.0  # seconds a search with no worker left waits for one (a nanny restarts a killed worker in 1-2 s)
+POLL = 5.0  # seconds between a map's looks at whether the cluster has any worker left
 
 
 class WorkersLost(WorkersFailed):
@@ -211,17 +212,24 @@ def _tasks(client, function: Callable, jobs: Sequence, done: Callable[[], None],
     index = {future: k for k, future in enumerate(client.map(function, jobs, pure=False))}
     results: dict[int, object] = {}
     pending, copied, gaps, last, waiters = set(index), set(), [], time.monotonic(), {}
+    since, workerless = last, None  # since: the last task's end or copy round; workerless: see _workers_left
     while pending:
-        finished = client.sync(_first_done, pending, _task_limit(gaps), waiters)
+        limit = _task_limit(gaps)
+        wait = POLL if limit is None else max(0.0, min(POLL, since + limit - time.monotonic()))
+        finished = client.sync(_first_done, pending, wait, waiters)
         if not finished:
-            copies = _copies(client, function, jobs, pending - copied, index, copied)
-            if copies and incidents is not None:
-                incidents.append(f"{len(copies)} task(s) stuck on a Dask worker that stopped answering ran again on "
-                                 f"the others")
-            pending |= copies
+            workerless = _workers_left(client, workerless)
+            if limit is not None and time.monotonic() - since >= limit:
+                copies = _copies(client, function, jobs, pending - copied, index, copied)
+                if copies and incidents is not None:
+                    incidents.append(f"{len(copies)} task(s) stuck on a Dask worker that stopped answering ran "
+                                     f"again on the others")
+                pending |= copies
+                since = time.monotonic()
             continue
         gaps.append(time.monotonic() - last)
-        last = time.monotonic()
+        last = since = time.monotonic()
+        workerless = None
         for future, outcome in finished.items():
             k = index.pop(future)
             if k not in results:
@@ -231,6 +239,17 @@ def _tasks(client, function: Callable, jobs: Sequence, done: Callable[[], None],
         pending = {f for f in pending if f in index and index[f] not in results}
     client.cancel([f for f in index if not f.done()])
     return [results[k] for k in range(len(jobs))]
+
+
+def _workers_left(client, workerless: float | None) -> float | None:
+    """Since when the cluster has had no worker (None while it has one): a map waits for
+    one to (re)join for RETURN_WAIT, then gives up with WorkersLost (it waited for ever)."""
+    if client.scheduler_info()["workers"]:
+        return None
+    workerless = workerless or time.monotonic()
+    if time.monotonic() - workerless > RETURN_WAIT:
+        raise WorkersLost(f"every worker of the Dask cluster was lost, and none joined within {RETURN_WAIT:g} s")
+    return workerless
 
 
 def _task_limit(gaps: list[float]) -> float | None:
