@@ -1,0 +1,56 @@
+"""Closing a sampled controller's loop around the independent reference simulator (tests only).
+
+The controller reads the quantized encoders at each sample t_k = k T_s and its command is
+held until the next. The reference simulator (reference_rig) restarts its integration at
+every breakpoint of a piecewise-constant input and re-resolves the friction modes there
+from the state it has reached: `_SampledRig` takes that moment, where it is handed the
+state, to run the controller and set the command for the coming interval. So one
+event-driven simulation runs the whole loop, the plant's physics untouched, and the
+friction modes carry over from one sample to the next as in one open-loop run.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from reference_rig import INITIAL_DEFAULTS, _Rig, _Signal, rig_params
+
+SOLVER = {"rtol": 1e-8, "atol": 1e-10}
+
+
+def quantize(value: float, step: float) -> float:
+    return step * round(value / step)
+
+
+class _SampledRig(_Rig):
+    """The reference rig whose command current is set by `controller(x_read, phi_read)` at
+    each input breakpoint (the samples), from the encoders' quantized readings."""
+
+    def __init__(self, params: dict, controller, dx: float, dphi: float):
+        super().__init__(params, loop=True, cart="dynamic", pend="dynamic")
+        self.controller, self.dx, self.dphi = controller, dx, dphi
+        self.held = 0.0
+        self.samples: list[tuple[float, float, float, float]] = []  # (t, x, phi, I_c), true x and phi
+
+    def resolve(self, t, y, u, prev, event=None):
+        if event is None:  # a breakpoint or the start: a sample
+            self.held = self.controller(quantize(y[1], self.dx), quantize(y[3], self.dphi))
+            self.samples.append((t, y[1], y[3], self.held))
+        return super().resolve(t, y, u, prev, event)
+
+
+def close_loop(params: dict, controller, *, T_s: float, duration: float, phi0: float, dx: float,
+               dphi: float = 2 * math.pi / 1024) -> dict[str, np.ndarray]:
+    """Run `controller(x_read, phi_read) -> I_c` in closed loop for `duration`, the rig
+    (reference_rig names) starting at rest at x = 0, phi0; the true x and phi at the samples
+    and the commands: time, x, phi, I_c."""
+    n = int(round(duration / T_s))
+    rig = _SampledRig(rig_params(params), controller, dx, dphi)
+    times = T_s * np.arange(n + 1)
+    signal = _Signal(lambda t: rig.held, breakpoints=tuple(times[1:-1]))
+    y0 = [INITIAL_DEFAULTS["I0"], 0.0, 0.0, phi0, 0.0]
+    rig.run({"Ic": signal}, times[[0, -1]], y0, **SOLVER)
+    time, x, phi, I_c = (np.array(column) for column in zip(*rig.samples[:n]))
+    return {"time": time, "x": x, "phi": phi, "I_c": I_c}
