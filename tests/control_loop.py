@@ -18,6 +18,8 @@ import numpy as np
 from reference_rig import INITIAL_DEFAULTS, _Rig, _Signal, rig_params
 
 SOLVER = {"rtol": 1e-8, "atol": 1e-10}
+# [m/s, rad/s]: how far from 0 a joint's stop is located (see _SampledRig.events)
+STOP_OFFSET = 1e-12
 
 
 def quantize(value: float, step: float) -> float:
@@ -34,11 +36,34 @@ class _SampledRig(_Rig):
         self.held = 0.0
         self.samples: list[tuple[float, float, float, float]] = []  # (t, x, phi, I_c), true x and phi
 
+    def events(self, modes, u):
+        """The simulator's events, a stop located when the speed is STOP_OFFSET short of 0.
+
+        Why: after a reversal the joint restarts at speed exactly 0, where its new stop event
+        function is 0 too; when the current slews, the joint can come back to rest within the
+        integrator's first step, and the root finder, handed a bracket with a zero at its
+        start, returns the start: a stop at the reversal's own instant, in no consistent mode
+        (the simulator refuses the state). Shifted, the function is nonzero at the start."""
+        shifted = []
+        for event in super().events(modes, u):
+            joint, kind, _ = event.info
+            if kind == "stop":
+                event = _shifted(event, STOP_OFFSET * modes[1 if joint == "cart" else 2])
+            shifted.append(event)
+        return shifted
+
     def resolve(self, t, y, u, prev, event=None):
         if event is None:  # a breakpoint or the start: a sample
             self.held = self.controller(quantize(y[1], self.dx), quantize(y[3], self.dphi))
             self.samples.append((t, y[1], y[3], self.held))
         return super().resolve(t, y, u, prev, event)
+
+
+def _shifted(event, offset: float):
+    def function(t, y):
+        return event(t, y) + offset
+    function.terminal, function.direction, function.info = event.terminal, event.direction, event.info
+    return function
 
 
 def close_loop(params: dict, controller, *, T_s: float, duration: float, phi0: float, dx: float,

@@ -41,7 +41,7 @@ class Weights:
     phi: float = 0.02
     v: float = 0.5
     w: float = 1.0
-    a: float = 2.0
+    a: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -148,4 +148,4 @@ def design(parameters: Mapping[str, float], options: Options = Options()) -> Des
                   swing_up=options.task == "swing-up", compensation=options.compensation, axis=axis,
                   K=tuple(float(k) for k in K), L=tuple((float(r[0]), float(r[1])) for r in L),
                   k_E=20.0, a_swing=min(6.0, 0.5 * a_drive), k_xs=8.0, k_vs=6.0, phi_catch=0.3,
-                  v_stuck=2e-3, F_ramp=0.5)
+                  v_stuck=5e-3, F_ramp=3.0)

@@ -79,7 +79,7 @@ class Controller:
         """The energy law: push the cart against w cos(phi) in proportion to the energy missing
         to upright (E = 0 there), within a_swing, while springs pull the cart back to x_ref."""
         d, rig = self.d, self.d.rig
-        E = 0.5 * rig.J * s[3] ** 2 + rig.m * rig.g * rig.l * (math.cos(s[2]) - 1.0)
+        E = 0.5 * rig.J * (s[3] * s[3]) + rig.m * rig.g * rig.l * (math.cos(s[2]) - 1.0)
         pump = d.k_E * E / (rig.m * rig.g * rig.l) * sgn(s[3] * math.cos(s[2]))
         pump = max(-d.a_swing, min(d.a_swing, pump))
         return pump - d.k_xs * (s[0] - x_ref) - d.k_vs * s[1]
