@@ -38,7 +38,7 @@ class Weights:
     (Bryson's rule). A larger scale tolerates more of it."""
 
     x: float = 0.05
-    phi: float = 0.02
+    phi: float = 0.01
     v: float = 0.5
     w: float = 1.0
     a: float = 1.0
