@@ -79,3 +79,20 @@ def close_loop(params: dict, controller, *, T_s: float, duration: float, phi0: f
     rig.run({"Ic": signal}, times[[0, -1]], y0, **SOLVER)
     time, x, phi, I_c = (np.array(column) for column in zip(*rig.samples[:n]))
     return {"time": time, "x": x, "phi": phi, "I_c": I_c}
+
+
+CAPTURED = 0.1  # rad: within this of upright from the capture on
+
+
+def verdict(run: dict, window: float) -> dict[str, float]:
+    """The issue's figures of a closed-loop run: capture time (from when the pendulum stays
+    within CAPTURED of upright), RMS of phi [steps of the 10-bit encoder], x [m] and I_c [A] over the last
+    `window` seconds, and the largest |x| [m]."""
+    phi = np.mod(np.asarray(run["phi"]) + math.pi, 2 * math.pi) - math.pi
+    last = run["time"] >= run["time"][-1] - window
+    away = np.flatnonzero(np.abs(phi) >= CAPTURED)
+    capture = 0.0 if away.size == 0 else float(run["time"][min(away[-1] + 1, len(phi) - 1)])
+    rms = {name: float(np.sqrt(np.mean(np.asarray(values)[last] ** 2)))
+           for name, values in (("phi", phi), ("x", run["x"]), ("I_c", run["I_c"]))}
+    return {"capture": capture, "phi_steps": rms["phi"] / (2 * math.pi / 1024), "x": rms["x"], "I_c": rms["I_c"],
+            "x_peak": float(np.max(np.abs(run["x"])))}

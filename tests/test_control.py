@@ -28,16 +28,27 @@ def readings(n: int, turns: int = 2) -> tuple[np.ndarray, np.ndarray]:
     return dx * np.round(x / dx), DPHI * np.round(phi / DPHI)
 
 
-def fmu_commands(parameters: dict, x: np.ndarray, phi: np.ndarray, x_ref: float) -> np.ndarray:
-    """The FMU's I_c at each sample, the readings set at the communication point before reading it."""
-    out = []
-    with ComponentFMU("RigController", parameters) as fmu:
-        for k, (x_k, phi_k) in enumerate(zip(x, phi)):
-            fmu.set(x=x_k, phi=phi_k, x_ref=x_ref)
-            out.append(fmu.get("I_c")[0])
-            fmu.time = k * T_S
-            fmu.step(T_S)
-    return np.array(out)
+class FMULaw:
+    """The RigController FMU as a sampled law: `law(x, phi)` sets the readings at the sample's
+    communication point, reads I_c and steps to the next sample (Co-Simulation, FMI 2.0)."""
+
+    def __init__(self, parameters: dict, x_ref: float = 0.0):
+        self.fmu = ComponentFMU("RigController", parameters)
+        self.x_ref, self.k = x_ref, 0
+
+    def __call__(self, x: float, phi: float) -> float:
+        self.fmu.set(x=x, phi=phi, x_ref=self.x_ref)
+        I_c = self.fmu.get("I_c")[0]
+        self.fmu.time = self.k * T_S  # communication points by multiplication, as masters do
+        self.fmu.step(T_S)
+        self.k += 1
+        return I_c
+
+    def __enter__(self) -> FMULaw:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.fmu.free()
 
 
 @pytest.mark.parametrize("eta, compensation", [(0.4, True), (0.75, True), (0.4, False)])
@@ -48,7 +59,8 @@ def test_fmu_equals_the_python_law_sample_by_sample(eta, compensation):
     x, phi = readings(2500)
     law = Controller(the_design)
     python = np.array([law.step(x_k, phi_k, 0.01) for x_k, phi_k in zip(x, phi)])
-    fmu = fmu_commands(fmu_parameters(the_design), x, phi, 0.01)
+    with FMULaw(fmu_parameters(the_design), x_ref=0.01) as law_fmu:
+        fmu = np.array([law_fmu(x_k, phi_k) for x_k, phi_k in zip(x, phi)])
     assert np.ptp(python) > 1.0  # the law is exercised, not resting at 0
     np.testing.assert_allclose(fmu, python, rtol=0, atol=1e-9)
 
@@ -58,48 +70,36 @@ def test_fmu_equals_the_python_law_sample_by_sample(eta, compensation):
 # (the reference simulator takes ~1.5 s of CPU per simulated second), so these runs are
 # short and judge the last seconds: the full runs are scripts/control_table.py.
 
-CAPTURED = 0.1  # rad: within this of upright from the capture on
-
-
-def verdict(run: dict, window: float) -> dict[str, float]:
-    """The issue's figures of a closed-loop run: capture time (from when the pendulum stays
-    within CAPTURED of upright), RMS of phi [encoder steps], x [m] and I_c [A] over the last
-    `window` seconds, and the largest |x| [m]."""
-    phi = np.mod(np.asarray(run["phi"]) + math.pi, 2 * math.pi) - math.pi
-    last = run["time"] >= run["time"][-1] - window
-    away = np.flatnonzero(np.abs(phi) >= CAPTURED)
-    capture = 0.0 if away.size == 0 else float(run["time"][min(away[-1] + 1, len(phi) - 1)])
-    rms = {name: float(np.sqrt(np.mean(np.asarray(values)[last] ** 2)))
-           for name, values in (("phi", phi), ("x", run["x"]), ("I_c", run["I_c"]))}
-    return {"capture": capture, "phi_steps": rms["phi"] / DPHI, "x": rms["x"], "I_c": rms["I_c"],
-            "x_peak": float(np.max(np.abs(run["x"])))}
-
-
-def closed_loop(seed: int, task: str, phi0: float, duration: float) -> dict[str, float]:
-    """The controller designed from drawn rig `seed`'s true values, in closed loop with the
-    reference simulator of that rig, quantized encoders, 1 ms, +-5 A."""
-    from control_loop import close_loop
+def closed_loop(seed: int, task: str, phi0: float, duration: float, fmu: bool = False) -> dict[str, float]:
+    """The controller designed from drawn rig `seed`'s true values (the law in Python, or its
+    FMU), in closed loop with the reference simulator of that rig, quantized encoders, 1 ms, +-5 A."""
+    from control_loop import close_loop, verdict
     from reference_rig import DEFAULTS
 
     from pendfmu.virtual_rig import draw_truth
 
     truth = {**rig_defaults(), **draw_truth(seed)[0]}
-    law = Controller(design(truth, Options(task=task)))
-    run = close_loop({k: v for k, v in truth.items() if k in DEFAULTS}, law.step, T_s=T_S, duration=duration,
-                     phi0=phi0, dx=2 * math.pi / (1024 * truth["k_D"]))
+    the_design = design(truth, Options(task=task))
+    law = FMULaw(fmu_parameters(the_design)) if fmu else Controller(the_design).step
+    try:
+        run = close_loop({k: v for k, v in truth.items() if k in DEFAULTS}, law, T_s=T_S, duration=duration,
+                         phi0=phi0, dx=2 * math.pi / (1024 * truth["k_D"]))
+    finally:
+        if fmu:
+            law.fmu.free()
     assert np.max(np.abs(run["I_c"])) <= 5.0
     return verdict(run, window=duration / 2 if task == "balance" else 2.0)
 
 
 def test_balance_from_a_tenth_of_a_radian_on_a_self_locking_rig():
-    figures = closed_loop(1, "balance", 0.1, duration=5.0)  # drawn rig 1: eta 0.36
+    figures = closed_loop(1, "balance", 0.1, duration=3.0)  # drawn rig 1: eta 0.36
     assert figures["capture"] <= 1.0, figures
     assert figures["phi_steps"] <= 1.0 and figures["x"] <= 0.010 and figures["I_c"] <= 1.0, figures
     assert figures["x_peak"] <= 0.4, figures
 
 
 def test_swing_up_from_hanging_on_a_back_drivable_rig():
-    figures = closed_loop(0, "swing-up", math.pi, duration=9.0)  # drawn rig 0: eta 0.59
+    figures = closed_loop(0, "swing-up", math.pi, duration=8.0, fmu=True)  # drawn rig 0: eta 0.59
     assert figures["capture"] <= 7.0, figures
     assert figures["phi_steps"] <= 1.0 and figures["x"] <= 0.010 and figures["I_c"] <= 1.0, figures
     assert figures["x_peak"] <= 0.4, figures
@@ -151,7 +151,7 @@ def test_design_reads_the_fit_and_the_sidecars(tmp_path):
                                 "provenance": {"inputs": [{"path": str(tmp_path / "run.csv")}]}}))
     args = SimpleNamespace(task="swing-up", sample_time=2e-3, current_limit=4.0, track=0.3, weights=["x=0.1"],
                            no_compensation=True, dx=None, dphi=None)
-    the_design, notes = design_from_result(str(path), args)
+    the_design, _, notes = design_from_result(str(path), args)
     assert not the_design.axis and the_design.rig.F_Kc == 5.0 and the_design.rig.k_fwc == 20.0
     assert (the_design.T_s, the_design.I_max, the_design.x_max, the_design.compensation) == (2e-3, 4.0, 0.3, False)
     assert "encoder resolution of x: the sidecars" in notes and "encoder resolution of phi: MODEL.md" in notes

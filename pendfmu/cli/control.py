@@ -5,7 +5,8 @@
                     [--no-compensation] [--dx M] [--dphi RAD]
 
 Writes DIR/RigController.fmu (FMI 2.0) and DIR/fmi3/RigController.fmu (FMI 3.0), Co-Simulation
-and Model Exchange, whose parameters are the design (retune them without compiling), and
+and Model Exchange, whose parameters are the design (retune them without compiling),
+DIR/ClosedLoop.ssp (the identified rig's FMUs and the controller, sampled at T_s), and
 DIR/design.json and DIR/report.md: the model it was designed on, the gains and the closed
 loop's poles. The design: a discrete LQR about upright (on the self-locking screw's cart as
 an acceleration-commanded axis, else on the coupled model), a Kalman filter from the
@@ -39,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
 
     from pendfmu.control.report import design_from_result, write_outputs
 
-    the_design, notes = design_from_result(args.result, args)
-    for path in write_outputs(the_design, notes, Path(args.out)):
+    the_design, values, notes = design_from_result(args.result, args)
+    for path in write_outputs(the_design, values, notes, Path(args.out)):
         print(path)
     return 0

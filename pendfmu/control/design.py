@@ -37,7 +37,7 @@ class Weights:
     speeds [m/s, rad/s] and the cart acceleration [m/s^2] that each cost as much as the others
     (Bryson's rule). A larger scale tolerates more of it."""
 
-    x: float = 0.05
+    x: float = 0.02
     phi: float = 0.01
     v: float = 0.5
     w: float = 1.0

@@ -53,8 +53,8 @@ def options_from(args, resolutions: dict[str, float]) -> Options:
                    dx=args.dx or resolutions.get("x"), dphi=args.dphi or resolutions.get("phi"))
 
 
-def design_from_result(path: str, args) -> tuple[Design, list[str]]:
-    """The design for the fit result at `path` and notes on what it assumed."""
+def design_from_result(path: str, args) -> tuple[Design, dict[str, float], list[str]]:
+    """The design for the fit result at `path`, the rig values it rests on and notes on what it assumed."""
     from pendfmu.fitting.result import read_result
 
     result = read_result(path)
@@ -64,7 +64,7 @@ def design_from_result(path: str, args) -> tuple[Design, list[str]]:
     notes = [f"{name} = {values[name]:g}: not in the result, MODEL.md's reference value" for name in assumed]
     notes += [f"encoder resolution of {name}: {'the sidecars' if name in resolutions else 'MODEL.md'}"
               for name in ("x", "phi") if getattr(args, "d" + name) is None]
-    return design(values, options), notes
+    return design(values, options), values, notes
 
 
 def closed_loop_poles(the_design: Design) -> dict[str, list[float]]:
@@ -101,10 +101,39 @@ def report_text(the_design: Design, notes: list[str]) -> str:
     return "\n".join(lines)
 
 
-def write_outputs(the_design: Design, notes: list[str], out: Path) -> list[Path]:
-    """The two FMUs, design.json and report.md in `out`."""
+def loop_connections(the_design: Design) -> list[str]:
+    """The rig's wiring (pendfmu.ssp.rig: the pendulum fed back for a back-drivable screw) and
+    the controller's: the encoders' x and phi in, its current command to the current loop."""
+    from pendfmu.ssp.rig import BACK_DRIVE, DRIVE
+
+    pairs = DRIVE + (BACK_DRIVE if the_design.rig.A > 0 else ())
+    pairs += (("Cart.x", "RigController.x"), ("Pendulum.phi", "RigController.phi"),
+              ("RigController.I_c", "CurrentLoop.I_c"))
+    return [f"{start}={end}" for start, end in pairs]
+
+
+def write_loop_ssp(the_design: Design, values: dict[str, float], out: Path) -> Path:
+    """out/ClosedLoop.ssp: the identified rig's FMUs (pendfmu's components with the fit's
+    values) and out/RigController.fmu, sampled at T_s; its free input is x_ref. The pendulum
+    starts hanging for swing-up, 0.1 rad from upright for balance (Pendulum.phi0)."""
+    from pendfmu.components import COMPONENTS
+    from pendfmu.ssp.archive import write_ssp
+    from pendfmu.ssp.compose import compose
+
+    given = {f"{component}.{name}": values[name] for component, table in COMPONENTS.items()
+             for name in table.parameters if name in values}
+    given["Pendulum.phi0"] = math.pi if the_design.swing_up else 0.1
+    parts = {name: name for name in COMPONENTS} | {"RigController": out / "RigController.fmu"}
+    system = compose(parts, loop_connections(the_design), given, name="ClosedLoop", step_size=the_design.T_s,
+                     description="The identified rig in closed loop with the RigController designed from its fit")
+    return write_ssp(system, out / "ClosedLoop.ssp")
+
+
+def write_outputs(the_design: Design, values: dict[str, float], notes: list[str], out: Path) -> list[Path]:
+    """The two FMUs, the closed loop's SSP, design.json and report.md in `out`."""
     out.mkdir(parents=True, exist_ok=True)
     paths = write_fmus(the_design, out)
+    paths.append(write_loop_ssp(the_design, values, out))
     document = {"parameters": fmu_parameters(the_design), "notes": notes, "poles": closed_loop_poles(the_design)}
     paths.append(write_atomically(out / "design.json", json.dumps(document, indent=2) + "\n"))
     paths.append(write_atomically(out / "report.md", report_text(the_design, notes)))
