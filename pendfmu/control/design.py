@@ -20,7 +20,7 @@ variance delta^2/12), its process noise the force and torque the model misses (f
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
@@ -63,9 +63,6 @@ class Options:
     sigma_T: float = 0.02
 
 
-TASKS = ("balance", "swing-up")
-
-
 @dataclass(frozen=True)
 class Design:
     """Everything the controller runs with, as flat numbers (the FMU's parameters).
@@ -95,9 +92,6 @@ class Design:
     phi_catch: float
     v_stuck: float
     F_ramp: float
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 def lqr_gain(Phi: np.ndarray, Gamma: np.ndarray, Q: np.ndarray, R: np.ndarray) -> np.ndarray:
