@@ -365,7 +365,7 @@ def _rig_controller_parameters() -> tuple[Variable, ...]:
         ("F_ramp", "N", "Friction compensation: wanted force over which the breakaway builds up to F_Sc"),
     )
     # MODEL.md's reference rig (its gains 0: `pendfmu control` writes a design's values as the starts)
-    reference = {"M": 3.2, "m_p": 0.2, "l": 0.3, "J_p": 0.012, "g": 9.81, "eta": 0.4, "k_F": 0.06 * 628.3,
+    reference = {"M": 3.2, "m_p": 0.2, "l": 0.3, "J_p": 0.024, "g": 9.81, "eta": 0.4, "k_F": 0.06 * 628.3,
                  "k_fwc": 30.0, "F_Kc": 8.0, "F_Sc": 12.0, "k_fwp": 1e-3, "T_i": 0.3e-3, "dIdt_max": 2500.0,
                  "I_max": 5.0, "x_max": 0.4, "phi_catch": 0.3, "v_stuck": 5e-3, "F_ramp": 3.0}
     return tuple(_param(name, reference.get(name, 0.0), unit, description)

@@ -65,6 +65,16 @@ def test_fmu_equals_the_python_law_sample_by_sample(eta, compensation):
     np.testing.assert_allclose(fmu, python, rtol=0, atol=1e-9)
 
 
+def test_table_defaults_are_the_reference_rig():
+    """The RigController's start values for the rig are MODEL.md's reference rig, as its design has them."""
+    from pendfmu.components import RIG_CONTROLLER
+
+    designed = fmu_parameters(design(rig_defaults()))
+    for name in ("M", "m_p", "l", "J_p", "g", "eta", "A_back", "k_F", "k_fwc", "F_Kc", "F_Sc", "k_fwp", "T_i",
+                 "dIdt_max", "T_s", "I_max", "x_max"):
+        assert RIG_CONTROLLER.variable(name).start == pytest.approx(designed[name], rel=1e-12), name
+
+
 # ------------------------------------------------ closed loop around the reference simulator
 # The issue's criteria are over the last 10 s of 20-25 s runs; the suite cannot afford them
 # (the reference simulator takes ~1.5 s of CPU per simulated second), so these runs are

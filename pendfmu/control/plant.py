@@ -24,6 +24,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from pendfmu.components import back_drive_efficiency
+from pendfmu.physics import pivot_inertia
 
 # Integration substeps of one sample in the prediction (RK2): 0.1 ms at T_s = 1 ms, a third of
 # the reference rig's current-loop constant, where an explicit step of the lag is accurate.
@@ -59,8 +60,7 @@ class RigModel:
     @classmethod
     def from_parameters(cls, p: Mapping[str, float]) -> RigModel:
         """From a full set of rig parameter values (rig_defaults() updated by a fit)."""
-        J = p["J_p"] if p.get("J_p", 0.0) > 0 else 4.0 / 3.0 * p["m_p"] * p["l"] ** 2
-        return cls(M=p["m_c"] + p["m_p"], m=p["m_p"], l=p["l"], J=J, g=p["g"], eta=p["eta"],
+        return cls(M=p["m_c"] + p["m_p"], m=p["m_p"], l=p["l"], J=pivot_inertia(p), g=p["g"], eta=p["eta"],
                    A=back_drive_efficiency(p["eta"], p.get("eta_back", -1.0)), k_F=p["k_M"] * p["k_D"],
                    k_fwc=p["k_fwc"], F_Kc=p["F_Kc"], F_Sc=max(p["F_Sc"], p["F_Kc"]), k_fwp=p["k_fwp"],
                    T_i=p["T_i"], dIdt_max=p["dIdt_max"])
