@@ -6,7 +6,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test fmus tools clean
+.PHONY: demo test acceptance fmus tools clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || { echo "pendfmu needs Python >= 3.11: run make PYTHON=/path/to/python3.11" >&2; exit 2; }
@@ -20,11 +20,17 @@ fmus: $(STAMP)
 demo: fmus
 	$(PY) -m pendfmu demo
 
-# Two pytest-xdist workers, a module whole on one (tests/conftest.py): the fits' own worker pools
+# Two pytest-xdist workers, a module whole on one (--dist loadfile; tests/conftest.py): the fits' own worker pools
 # leave a core idle in their serial phases (local refinement, validation, subprocesses), which
 # the other worker fills.
 test: tools fmus
-	$(PY) -m pytest -n 2 --dist loadgroup
+	$(PY) -m pytest -n 2 --dist loadfile -m "not acceptance"
+
+# The runs marked acceptance (pytest.mark.acceptance in the test modules): the real-data examples and fits whose
+# single run takes minutes, each a repeat at full length of what make test checks on a shorter
+# path. Run before a release and after changing the fit's search, intervals or the examples.
+acceptance: tools fmus
+	$(PY) -m pytest -n 2 --dist loadfile -m acceptance
 
 # Debian's packages for tests: valgrind (memcheck), mingw-w64 (the FMUs' win64 DLLs) and wine
 # (runs them, tests/test_win64.py), GNU Octave and unzip (the exported Simulink script),

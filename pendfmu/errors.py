@@ -12,6 +12,8 @@ pulling in the others. Each module defines its narrow classes on these bases::
     |   +-- ParameterFileError     parameters
     |   +-- ParameterError         simulator.component
     |   +-- SspError               ssp
+    |   +-- OutputError (OSError)  atomic: a file cannot be written (a full disk, a read-only folder)
+    |   +-- UnsafeFMU              a file name FMI does not allow: nothing loaded (simulator.fmi)
     +-- Suspicious                 exit 3 under --strict: the data look wrong (fitting.plausibility)
     +-- Interrupted                exit 130: a fit stopped by Ctrl-C, with its best values (fitting.checkpoint)
     +-- FMUError (RuntimeError)    exit 4: an FMU refused a call (which instance, function,
@@ -20,7 +22,12 @@ pulling in the others. Each module defines its narrow classes on these bases::
     +-- BuildError (RuntimeError)  exit 5: pendfmu cannot build its FMUs on this machine (no C
     |                              compiler, or the compiler refused the sources)
     +-- StiffModel (RuntimeError)  a model too stiff for `pendfmu check`'s own Model Exchange
-                                   integrator (check.driver): a limit of the check, not the FMU's
+    |                              integrator (check.driver): a limit of the check, not the FMU's
+    +-- WorkLimit (RuntimeError)   a check group past its cap of communication steps (check.driver)
+    +-- WorkersFailed (RuntimeError)  exit 6: the worker processes or the Dask cluster failed
+        |                          the work (killed, every worker lost): the machine, not the input
+        +-- WorkerDied             a job killed every local worker it ran on (fitting.pool)
+        +-- WorkersLost            every Dask worker lost or frozen (fitting.cluster)
 
 Anything else reaching the command line is an internal failure (exit 1).
 """
@@ -52,6 +59,13 @@ class OptionError(BadInput):
         super().__init__(f"{option}: {detail}")
         self.option = option
         self.detail = detail
+
+
+class OutputError(BadInput, OSError):
+    """A file pendfmu was asked to write cannot be written (a full disk, a read-only folder):
+    the message names the file and the system's reason; the previous file, if any, is
+    unchanged (atomic.py). An OSError too, so that code handling a failed write as one
+    still does."""
 
 
 class Suspicious(PendfmuError):
@@ -94,7 +108,14 @@ class BuildError(PendfmuError, RuntimeError):
     refused them (the message holds what it printed)."""
 
 
+class WorkersFailed(PendfmuError, RuntimeError):
+    """The machine failed the work, not the input or pendfmu: a job killed every worker
+    process it ran on (a segfaulting FMU with no penalty to give it, the OOM killer), or
+    every worker of the Dask cluster was lost or stopped answering."""
+
+
 EXIT_BAD_INPUT = 2
 EXIT_SUSPICIOUS = 3
 EXIT_MODEL_FAILED = 4
 EXIT_BUILD_FAILED = 5
+EXIT_WORKERS_FAILED = 6

@@ -17,8 +17,10 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from pendfmu import physics
+from pendfmu.atomic import write_atomically
 from pendfmu.components import COMPONENTS, parameter_table, rig_defaults
 from pendfmu.errors import BadInput
+from pendfmu.jsontext import parse_json
 from pendfmu.ranges import outside
 from pendfmu.recording.measurement import is_measurement, measurement_problem
 from pendfmu.recording.schema import SIGNAL_NAMES
@@ -103,7 +105,7 @@ def read_parameters(path: str | Path, check: Callable[[Mapping[str, object], str
     except OSError as error:
         raise ParameterFileError(f"{path}: cannot read parameters file ({error.strerror})") from None
     try:
-        document = json.loads(text)
+        document = parse_json(text)
     except json.JSONDecodeError as error:
         raise ParameterFileError(f"{path}: not valid JSON (line {error.lineno}, column {error.colno}: {error.msg})") from None
     if not isinstance(document, dict) or not isinstance(document.get("parameters"), dict):
@@ -113,7 +115,7 @@ def read_parameters(path: str | Path, check: Callable[[Mapping[str, object], str
 
 def write_parameters(values: Mapping[str, float], path: str | Path, **extra: object) -> None:
     document = {"parameters": dict(values), **extra}
-    Path(path).write_text(json.dumps(document, indent=2) + "\n")
+    write_atomically(path, json.dumps(document, indent=2) + "\n")
 
 
 def with_initial_states(values: Mapping[str, float], initial: Mapping[str, float], where: str = "") -> dict[str, float]:

@@ -18,6 +18,12 @@ interface it has:
     ``assert_converges``, ``assert_finite_over_inputs``, ``assert_calls_rejected`` and
     ``assert_matches(result, reference, atol, rtol, ttol)``.
 
+Each assertion runs its check groups in a child process (pendfmu/check/contain.py): an FMU that
+crashes (SIGSEGV, an abort) or hangs fails that test with the signal or the time limit named,
+and the session goes on. The time limit of a check group is ``--pendfmu-time-limit SECONDS`` or
+the ini option ``pendfmu_time_limit`` (default pendfmu.check.contain.TIME_LIMIT). The
+``fmu_runner`` fixture hands out live instances and runs in the test's own process.
+
 Parametrization
     ``@pytest.mark.parametrize("fmu, interface", fmus_and_interfaces(paths))``: one test per
     FMU and interface, with ids like ``Cart-CS``; an interface the FMU does not have is a
@@ -28,6 +34,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +46,30 @@ __all__ = ["FMURunner", "Run", "assert_calls_rejected", "assert_converges", "ass
 
 KINDS = {"CS": "CS", "CoSimulation": "CS", "ME": "ME", "ModelExchange": "ME"}
 LONG = {"CS": "CoSimulation", "ME": "ModelExchange"}
+SESSION: dict[str, float] = {}
+"""The session's options: "time_limit" when --pendfmu-time-limit or the ini option set it."""
+
+
+def pytest_addoption(parser) -> None:
+    help_text = "seconds each pendfmu check group may take in its child process (default: pendfmu.check.contain's)"
+    parser.addoption("--pendfmu-time-limit", type=float, metavar="SECONDS", help=help_text)
+    parser.addini("pendfmu_time_limit", help_text)
+
+
+def pytest_configure(config) -> None:
+    given = config.getoption("pendfmu_time_limit", None) or config.getini("pendfmu_time_limit")
+    if given:
+        limit = float(given)
+        if not 0 < limit < float("inf"):
+            raise pytest.UsageError(f"--pendfmu-time-limit {given}: needs a finite number of seconds > 0")
+        SESSION["time_limit"] = limit
+
+
+def _contained(jobs) -> list:
+    """The rows of check jobs, each group in a child process (contain.run_all)."""
+    from pendfmu.check.contain import TIME_LIMIT, run_all
+
+    return run_all(jobs, SESSION.get("time_limit", TIME_LIMIT))
 
 
 def _kind(interface: str) -> str:
@@ -244,20 +275,21 @@ def _target(path, stop=None, step=None, recording=None):
     from pendfmu.errors import BadInput
 
     try:
-        return Target(path, stop, step, recording)
+        target = Target(path, stop, step, recording)
     except BadInput as error:
         raise AssertionError(str(error)) from None
+    if target.refused:  # nothing of it may be loaded
+        raise AssertionError(target.refused)
+    return target
 
 
 def _rows(path, module, interface, stop, step, recording, prepare=None):
+    from pendfmu.check.battery import group_jobs
+
     target = _target(path, stop, step, recording)
     if prepare is not None:
         prepare(target)
-    kinds = _kinds(target, interface)
-    rows = []
-    for kind in kinds:
-        rows += module.run(target, kind)
-    return target, rows
+    return target, _contained(group_jobs(target, module, _kinds(target, interface)))
 
 
 def _kinds(target, interface) -> list[str]:
@@ -288,32 +320,35 @@ def assert_valid(fmu, interface: str | None = None):
     accepted, the declared capabilities (FMU state, serialization, input derivatives,
     directional derivatives, variable steps) working."""
     from pendfmu.check import static
+    from pendfmu.check.battery import group_jobs
 
     target = _target(fmu)
-    if interface is not None:
-        kind = _kind(interface)
-        if kind not in target.interfaces:
-            raise AssertionError(f"{target.name} has no {LONG[kind]} interface")
-        target.interfaces = [kind]
-    _fail_on(target, static.run(target))
+    binary = _contained(group_jobs(target, static, _kinds(target, interface)))
+    _fail_on(target, static.description_rows(target) + binary)
 
 
 def assert_deterministic(fmu, interface: str | None = None, *, stop=None, step=None, recording=None):
     """Two fresh instances, same inputs: outputs identical bit for bit, and moving (identical
     constants say nothing: that is inconclusive and fails too)."""
+    from pendfmu.check.contain import Job
+
+    target = _target(fmu, stop, step, recording)
+    jobs = [Job(f"determinism: fresh instances {kind}", partial(_fresh_instances, target, kind))
+            for kind in _kinds(target, interface)]
+    _fail_on(target, _contained(jobs))
+
+
+def _fresh_instances(target, kind: str) -> list:
+    """The row of two fresh instances' runs (a job of assert_deterministic)."""
     from pendfmu.check import determinism
     from pendfmu.check.fmu import CheckResult, call_error
 
-    target, rows = _target(fmu, stop, step, recording), []
-    for kind in _kinds(target, interface):
-        try:
-            first = determinism.fresh_run(target, kind)
-            second = determinism.fresh_run(target, kind)
-        except Exception as error:
-            rows.append(CheckResult(f"determinism: fresh instances {kind}", False, "run failed", call_error(error)))
-            continue
-        rows.append(determinism.fresh_instances(target, kind, first, second))
-    _fail_on(target, rows)
+    try:
+        first = determinism.fresh_run(target, kind)
+        second = determinism.fresh_run(target, kind)
+    except Exception as error:
+        return [CheckResult(f"determinism: fresh instances {kind}", False, "run failed", call_error(error))]
+    return [determinism.fresh_instances(target, kind, first, second)]
 
 
 def assert_reset_restores(fmu, interface: str | None = None, *, parameter: str | None = None,
@@ -385,7 +420,7 @@ def assert_finite_over_inputs(fmu, interface: str | None = None, *, stop=None, s
 def assert_calls_rejected(fmu, interface: str | None = None, *, step=None):
     """Misuse (a step before initialization, an unknown value reference, NaN and Inf inputs,
     a fixed parameter set while stepping) is answered with an error status and a log message,
-    never a crash (each runs in a child process) or an OK with NaN outputs."""
+    never a crash or an OK with NaN outputs."""
     from pendfmu.check import sequence
 
     target, rows = _rows(fmu, sequence, interface, None, step, None)

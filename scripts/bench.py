@@ -399,7 +399,7 @@ def dask_scaling(stage: str = "pendulum") -> None:
         times = {}
         for workers in (1, 2):  # default workers: the fit pauses their profiler itself
             with LocalCluster(n_workers=workers, threads_per_worker=1, host="127.0.0.1",
-                              dashboard_address=None) as cluster, Client(cluster.scheduler_address) as client:
+                              dashboard_address=":0") as cluster, Client(cluster.scheduler_address) as client:
                 # Workers that have imported pendfmu, as on a cluster that served a fit before: the
                 # imports happen once per worker process and, done in parallel, would flatter 2 workers.
                 client.run(importlib.import_module, "pendfmu.fitting.residuals")

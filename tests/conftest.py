@@ -15,18 +15,12 @@ from pendfmu.fmubuild import build_all
 FIRST = ("test_readme_runs.py", "test_examples_realdata.py", "test_realdata_fits.py", "test_identification.py",
          "test_wheel.py", "test_loop_events.py")
 """The longest modules (--durations of a whole run), started first: `make test` runs the
-modules on two pytest-xdist workers, and a long module started last would run alone at the end."""
+modules on two pytest-xdist workers (--dist loadfile: a module whole on one, so that its
+module-scoped fits run once), and a long module started last would run alone at the end."""
 
 
 def pytest_collection_modifyitems(config, items):
-    """Each module runs whole on one xdist worker (`-n 2 --dist loadgroup` in `make test`), so
-    that its module-scoped fits run once; every test that runs Windows programs shares one
-    group, as they share one wine prefix and wineserver (the `wine` fixture). The longest
-    modules go first (FIRST)."""
-    for item in items:
-        if item.get_closest_marker("xdist_group") is None:
-            group = "wine" if "wine" in item.fixturenames else item.nodeid.split("::")[0]
-            item.add_marker(pytest.mark.xdist_group(group))
+    """The longest modules first (FIRST), the rest in their order."""
     rank = {name: k for k, name in enumerate(FIRST)}
     items.sort(key=lambda item: rank.get(Path(str(item.fspath)).name, len(FIRST)))
 
@@ -111,7 +105,8 @@ def wine(request, tmp_path_factory):
     services wineboot starts) inherit the first caller's handles and would keep a pipe open
     long after the program has exited."""
     cache = getattr(request.config, "cache", None)  # None with -p no:cacheprovider: a fresh prefix then
-    prefix = cache.mkdir("wine-prefix") if cache else tmp_path_factory.mktemp("wine-prefix")
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")  # a prefix, and so a wineserver, per xdist worker
+    prefix = cache.mkdir(f"wine-prefix{worker}") if cache else tmp_path_factory.mktemp("wine-prefix")
     env = {**os.environ, "WINEPREFIX": str(prefix), "WINEDEBUG": "-all", "WINEDLLOVERRIDES": "mscoree,mshtml="}
     server = shutil.which("wineserver")  # without it on PATH, wine starts one per run (slower, same results)
     quiet = dict(env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -123,7 +123,7 @@ def set_reported(document: dict, label: str) -> bool:
     only that the value lies at or beyond it)."""
     flags = document["flags"].get(label, [])
     method = estimates(document)[label][2]
-    return method == "bounded" or any(f in flag for flag in flags for f in BOUND_FLAGS)
+    return (method or "").startswith("bounded") or any(f in flag for flag in flags for f in BOUND_FLAGS)  # ", widened ..."
 
 
 def reported_set(document: dict, label: str) -> tuple:

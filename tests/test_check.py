@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import re
 
-import sys
-
 import pytest
 
 from broken.build import build as build_broken
@@ -107,26 +105,28 @@ def test_command_names_a_missing_or_unreadable_fmu_and_exits_2(broken, tmp_path,
     assert "junk.fmu: not a readable FMU" in capsys.readouterr().err
 
 
-def test_a_crash_on_misuse_is_a_failed_row_and_the_other_misuses_still_run(broken, tmp_path, monkeypatch):
+def test_a_crash_on_misuse_is_a_failed_row_and_the_other_misuses_still_run(broken, monkeypatch):
+    import os
+    import signal
+
     from pendfmu.check import sequence
+    from pendfmu.check.battery import group_jobs
+    from pendfmu.check.contain import run_all
     from pendfmu.check.fmu import Target
 
-    script = tmp_path / "crashing_child.py"  # the child segfaults on one misuse, as a broken FMU would
-    script.write_text(
-        "import os, signal, sys\n"
-        "from pendfmu.check import sequence\n"
-        "real = sequence._misuse\n"
-        "def misuse(target, kind, step, case):\n"
-        "    if case == 'unknown value reference':\n"
-        "        os.kill(os.getpid(), signal.SIGSEGV)\n"
-        "    return real(target, kind, step, case)\n"
-        "sequence._misuse = misuse\n"
-        "sequence._child(sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4:])\n")
-    monkeypatch.setattr(sequence, "CHILD", [sys.executable, str(script)])
-    rows = {r.name: r for r in sequence.run(Target(broken["ok"]), "CS")}
+    real = sequence._misuse
+
+    def misuse(target, kind, step, case):  # segfaults on one misuse, as a broken FMU would (in the child)
+        if case == "unknown value reference":
+            os.kill(os.getpid(), signal.SIGSEGV)
+        return real(target, kind, step, case)
+
+    monkeypatch.setattr(sequence, "_misuse", misuse)
+    target = Target(broken["ok"])
+    rows = {r.name: r for r in run_all(group_jobs(target, sequence, ["CS"]))}
     crashed = rows.pop("sequence: unknown value reference CS")
-    assert not crashed.passed and crashed.figure == "crashed"
-    assert "the FMU crashed the process (signal 11) on the misuse 'unknown value reference'" in crashed.message
+    assert not crashed.passed and crashed.figure == "crashed (SIGSEGV)"
+    assert "crashed the check's process with SIGSEGV during sequence: unknown value reference CS" in crashed.message
     assert len(rows) == 4 and all(r.passed for r in rows.values())
 
 

@@ -27,6 +27,15 @@ import realdata as rd
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "realdata"
 NAMES = sorted(p.name for p in EXAMPLES.iterdir() if (p / "run").is_file())
+# Runs of minutes each (MultiArm's long decays, physical-cartpole's mass profile: about 3 min
+# apiece on two busy cores): `make acceptance`, not `make test`. Their fits' intervals on the
+# same data stay in make test (test_realdata_fits.py: MultiArm; the cartpole's conversion here).
+LONG = {"MultiArm-Pendulum", "physical-cartpole"}
+
+
+def running(names) -> list:
+    """The examples as parameters, the LONG ones marked acceptance."""
+    return [pytest.param(name, marks=pytest.mark.acceptance) if name in LONG else name for name in names]
 
 
 def run(name: str, outdir: Path, **env: str) -> subprocess.CompletedProcess:
@@ -99,7 +108,7 @@ def example_output(name: str, tmp_path_factory):
     return convert, outdir
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", running(NAMES))
 def test_run_writes_the_result(tmp_path_factory, name):
     convert, tmp_path = example_output(name, tmp_path_factory)
     document = json.loads((tmp_path / "result.json").read_text())
@@ -345,6 +354,7 @@ def test_cartpole_conversion_decisions():
     assert convert.angle_outliers(log) < 8  # invalid_steps rows lie on the swing (measured 5.8 counts)
 
 
+@pytest.mark.acceptance
 def test_cartpole_the_motion_fixes_ratios_not_the_mass(cartpole):
     """With m_c free, it and k_u (and k_fwc) move together (correlation > 0.999) and m_c's
     95 % interval spans many decades around the published 2.82 kg. Over the profile (m_c
@@ -369,6 +379,7 @@ def test_cartpole_the_motion_fixes_ratios_not_the_mass(cartpole):
     assert 0.5 < mass["lower_bound"] < convert.PUBLISHED["m_cart_eff"]
 
 
+@pytest.mark.acceptance
 def test_cartpole_cart_against_the_published(cartpole):
     """The cart at the published mass: k_u = 32.8 N, k_fwc = 61.4 N s/m, delay 26.9 ms
     (measured). Their Jacobian intervals assume white residuals; these drift (110 times the
@@ -394,6 +405,7 @@ def test_cartpole_cart_against_the_published(cartpole):
     assert result["parameters"]["F_Kc"] < 2.0  # small: the firmware compensates most of it
 
 
+@pytest.mark.acceptance
 def test_cartpole_pendulum_against_the_published(cartpole):
     """The swing-up's five 0.5 s pieces: the published pole (0.395 m, 0.087 kg, a uniform rod)
     fits the swing, J_p within 1 % of the rod's 4.525e-3 kg m^2 (measured 4.5252e-3, its
@@ -409,7 +421,7 @@ def test_cartpole_pendulum_against_the_published(cartpole):
     assert abs(pendulum["parameters"]["phi_offset"]) < 0.02  # the potentiometer's zero: within about a degree
 
 
-@pytest.mark.parametrize("name", [n for n in NAMES if n not in ("kord-stk",)])
+@pytest.mark.parametrize("name", running(n for n in NAMES if n not in ("kord-stk",)))
 def test_the_verdict_and_intervals_pass_a_split_window_test(tmp_path_factory, name):
     """Issue 25's done-when on every long real recording: the early and the late halves of the
     recordings, fitted by the tool as the example fits the whole (the fit's own validation,

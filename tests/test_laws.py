@@ -270,7 +270,7 @@ def test_the_laws_run_on_a_dask_cluster_as_on_local_processes(stairs):
     start = cart_start(reference_truth())
     local = compare_laws("cart", [stairs], start, global_search=GlobalOptions(popsize=2, maxiter=2, workers=2),
                          **options)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=":0",
                                   processes=True) as cluster:
         remote = compare_laws("cart", [stairs], start, **options,
                               global_search=GlobalOptions(popsize=2, maxiter=2, scheduler=cluster.scheduler_address))

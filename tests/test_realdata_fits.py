@@ -61,7 +61,11 @@ def fitted(tmp_path_factory):
     return get
 
 
-@pytest.mark.parametrize("name, method", [(name, "bootstrap") for name in TESTED] + [(LINE, "jacobian")])
+# EMPS's bootstrap (eight refits of the closed loop: 100 s on two busy cores) is make acceptance's;
+# its fit runs in make test through the example (test_examples_realdata.py, Jacobian intervals)
+@pytest.mark.parametrize("name, method", [pytest.param(name, "bootstrap", marks=pytest.mark.acceptance)
+                                          if name == "EMPS" else (name, "bootstrap") for name in TESTED]
+                         + [(LINE, "jacobian")])
 def test_fit_writes_its_result_with_intervals_in_range(fitted, name, method):
     """Exit code 0 (or 3, warnings under --strict), never 1 (an internal failure) or 2,
     the result file written, and every interval inside its parameter's physical range
@@ -89,7 +93,7 @@ def test_bounded_stiction_is_the_same_set_for_two_seeds(fitted):
     """The Furuta free decay only bounds T_Sp (method "bounded"): the same set for seeds
     0 and 1, by realdata_cases.same_set (method, value and ends within 1 % relative)."""
     runs = [fitted("rotary-inverted-pendulum", seed) for seed in (0, 1)]
-    assert runs[0].document["interval_method"]["T_Sp"] == "bounded"
+    assert runs[0].document["interval_method"]["T_Sp"].startswith("bounded")  # on this marked fit: ", widened to the halves"
     assert_same_sets(runs)
 
 

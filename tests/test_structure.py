@@ -12,6 +12,8 @@ import ast
 import importlib
 from pathlib import Path
 
+import pytest
+
 import pendfmu
 
 PACKAGE = Path(pendfmu.__file__).parent
@@ -122,6 +124,25 @@ def test_a_missing_compiler_is_exit_5_in_one_line(tmp_path, monkeypatch, capsys)
     assert main(["build", "--out", str(tmp_path / "fmus"), "--fmi", "2", "--force"]) == 5
     err = capsys.readouterr().err
     assert "cannot build the FMUs: no C compiler" in err and "no-such-cc" in err and len(err.splitlines()) == 1
+
+
+def test_workers_that_failed_the_work_are_exit_6_in_one_line(cart_recording, tmp_path, monkeypatch, capsys):
+    """Every Dask worker gone is the machine's failure, not the input's or pendfmu's: exit 6,
+    not an internal failure (WorkersLost once was one, outside the tree)."""
+    from pendfmu.cli import main
+    from pendfmu.fitting import cluster
+
+    def no_worker_answers(self):
+        raise cluster.WorkersLost("no worker of the Dask cluster answered (the test's)")
+
+    distributed = pytest.importorskip("distributed")
+    monkeypatch.setattr(cluster.ActorGroup, "add_actors", no_worker_answers)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as local:
+        code = main(["fit", "cart", str(cart_recording), "--scheduler", local.scheduler_address, "--out",
+                     str(tmp_path / "r.json")])
+    err = capsys.readouterr().err
+    assert code == 6 and "the workers failed: no worker of the Dask cluster answered" in err, err
 
 
 def test_every_error_pendfmu_raises_is_in_the_error_tree():

@@ -7,8 +7,12 @@ The installed copy must compute what the checkout computes: the same sources and
 flags give the same GUIDs, and `pendfmu simulate` gives the same file, byte for byte. One
 version number: the wheel's metadata and ``pendfmu.__version__`` agree.
 
-It needs git (to list the tracked files, as a clean clone would have them) and PyPI (pip
-resolves the dependencies, from its cache when warm); about 30 s.
+It needs git (to list the tracked files, as a clean clone would have them). The fresh venv
+sees the test environment's packages through a path file, not its own copies of them (pip
+installing numpy, scipy, pandas, matplotlib... took 100 s of the suite's time): the wheel is
+installed without them; `pip check` then says whether the wheel's declared dependencies are
+met by those packages (one named wrongly fails), and every package the installed pendfmu
+imports must be among them or theirs (one the wheel forgot fails).
 """
 
 from __future__ import annotations
@@ -57,9 +61,22 @@ def installed(tmp_path_factory):
     assert len(wheels) == 1, wheels
     _run([sys.executable, "-m", "venv", str(tmp / "venv")])
     bin_dir = tmp / "venv" / "bin"
-    _run([str(bin_dir / "python"), "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
+    _see_the_test_environments_packages(bin_dir)
+    _run([str(bin_dir / "python"), "-m", "pip", "install", "--quiet", "--disable-pip-version-check", "--no-deps",
           str(wheels[0])])
+    _run([str(bin_dir / "python"), "-m", "pip", "check", "--disable-pip-version-check"])
     return bin_dir
+
+
+def _see_the_test_environments_packages(bin_dir: Path) -> None:
+    """A path file in the fresh venv naming the test environment's site-packages: its
+    packages importable after the venv's own (so the installed pendfmu comes first), and its
+    path files unread (so the checkout's editable pendfmu stays out)."""
+    import site
+
+    own = subprocess.run([str(bin_dir / "python"), "-c", "import site; print(site.getsitepackages()[0])"],
+                         capture_output=True, text=True, check=True).stdout.strip()
+    (Path(own) / "test-environment.pth").write_text("\n".join(site.getsitepackages()) + "\n")
 
 
 def _clean_env(cache: Path) -> dict[str, str]:
@@ -100,10 +117,55 @@ def test_wheel_installs_builds_and_simulates_like_the_checkout(installed, tmp_pa
     assert pd.read_csv(work / "installed.csv")["x"].iloc[-1] > 0.01  # the drive moved the cart
 
 
+CLOSURE = """
+import ast, importlib.metadata as m, re, sys
+from pathlib import Path
+import pendfmu
+imported = set()
+for source in Path(pendfmu.__file__).parent.rglob("*.py"):
+    for node in ast.walk(ast.parse(source.read_bytes())):
+        if isinstance(node, ast.Import):
+            imported |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0:
+            imported.add(node.module.split(".")[0])
+owners = m.packages_distributions()
+declared, todo = set(), [("pendfmu", None)]
+while todo:
+    name, extras = todo.pop()  # extras None: pendfmu's own, all of them (Dask, the test tools)
+    try:
+        requirements = m.requires(name) or []
+    except m.PackageNotFoundError:  # a requirement for another platform (pip check holds the rest)
+        continue
+    for requirement in requirements:
+        extra = re.search(r"extra\\s*==\\s*['\\"]([^'\\"]+)", requirement)
+        if extra and extras is not None and extra.group(1) not in extras:
+            continue
+        wanted, asked = re.match(r"([A-Za-z0-9_.-]+)(?:\\[([^]]*)\\])?", requirement).groups()
+        wanted = wanted.lower().replace("_", "-")
+        if wanted not in declared:
+            declared.add(wanted)
+            todo.append((wanted, {e.strip() for e in (asked or "").split(",")}))
+for name in sorted(imported - set(sys.stdlib_module_names) - {"pendfmu", "__future__"}):
+    dists = {d.lower().replace("_", "-") for d in owners.get(name, [])}
+    if not dists & declared:
+        print(name, sorted(dists))
+"""
+
+
+def test_every_package_the_installed_copy_imports_is_a_declared_dependency(installed, tmp_path):
+    """A dependency the wheel forgot would import here from the test environment's packages:
+    each top-level package that an import statement anywhere in the installed pendfmu names
+    (lazy ones inside functions too) must belong to a distribution the wheel requires (its
+    extras included: Dask, pytest for the plugin), or one those require."""
+    undeclared = _run([str(installed / "python"), "-c", CLOSURE], cwd=tmp_path,
+                      env=_clean_env(tmp_path / "cache")).stdout
+    assert undeclared == "", f"imported, not declared: {undeclared}"
+
+
 def test_build_out_writes_the_fmus_where_asked(installed, tmp_path):
     env = _clean_env(tmp_path / "cache")
     out = tmp_path / "mine"
-    _run([str(installed / "pendfmu"), "build", "--out", str(out)], cwd=tmp_path, env=env)
+    _run([str(installed / "pendfmu"), "build", "--out", str(out), "--fmi", "2"], cwd=tmp_path, env=env)
     assert sorted(p.name for p in out.glob("*.fmu")) == sorted(f"{n}.fmu" for n in ALL_COMPONENTS)
     assert not (tmp_path / "cache" / "pendfmu").exists()
 

@@ -1,16 +1,20 @@
 """The whole battery on one FMU: `run_battery(path, stop, step) -> list[CheckResult]`.
 
-Static checks once, then every dynamic check for each interface the FMU declares (Co-
-Simulation, Model Exchange). A check that raises is a failed row, not a crash of the checker;
-the call-sequence checks run their misuse in child processes (a segfault is a FAIL there).
+Static checks of the model description once, then, for each interface the FMU declares (Co-
+Simulation, Model Exchange), the static checks of its binary and every dynamic check. Each
+check that loads the binary runs as a job in a child process with a time limit
+(pendfmu/check/contain.py): a check that raises, crashes (SIGSEGV, an abort) or hangs is a
+failed row, not a crash or a hang of the checker, and the other checks still run.
 """
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 from pendfmu.check import convergence, determinism, events, inputs, rollback, sequence, static
 from pendfmu.check import reference as reference_mod
+from pendfmu.check.contain import TIME_LIMIT, Job, run_contained
 from pendfmu.check.fmu import (DEFAULT_INPUT_LIMIT, DEFAULT_STEP_RTOL, FAIL, INCONCLUSIVE, PASS, VERDICTS, WARN,
                                CheckResult, Target)
 from pendfmu.check.reference import DEFAULT_ATOL, DEFAULT_RTOL
@@ -26,7 +30,7 @@ def run_battery(path: str | Path, stop: float | None = None, step: float | None 
                 reference: str | Path | None = None, atol: float = DEFAULT_ATOL, rtol: float = DEFAULT_RTOL,
                 ttol: float | None = None, plot_dir: str | Path | None = None,
                 input_limit: float = DEFAULT_INPUT_LIMIT, order: float | None = None,
-                step_rtol: float = DEFAULT_STEP_RTOL) -> list[CheckResult]:
+                step_rtol: float = DEFAULT_STEP_RTOL, time_limit: float = TIME_LIMIT) -> list[CheckResult]:
     """Every check on the FMU at `path`; `only` picks checks by module name ("static",
     "sequence", "events", "determinism", "rollback", "convergence", "inputs", "reference");
     `recording` a CSV (time first; a whole recording: columns that are not inputs are
@@ -36,38 +40,48 @@ def run_battery(path: str | Path, stop: float | None = None, step: float | None 
     move with the communication step (convergence.py). `reference` a CSV of reference results
     compared inside a tolerance tube (atol, rtol, ttol; pendfmu/check/reference.py), else the
     reference results the FMU carries (FMI-LS-REF), if any; `plot_dir` gets a PNG per failing
-    variable."""
+    variable. `time_limit`: seconds each check group may take in its child process."""
     target = Target(path, stop, step, recording)
     target.input_limit, target.stated_order, target.step_rtol = input_limit, order, step_rtol
     known = reference_mod.read_reference_csv(reference, target) if reference is not None else None
-    results: list[CheckResult] = []
-    if only is None or "static" in only:
-        results += _guarded("static", lambda: static.run(target))
-    runs = [(module, kind) for module in DYNAMIC for kind in target.interfaces
-            if only is None or module.__name__.rsplit(".", 1)[1] in only]
-    for module, kind in progress(runs, f"checking {Path(path).name}",
-                                 label=lambda run: f"{run[0].__name__.rsplit('.', 1)[1]} {run[1]}"):
-        label = module.__name__.rsplit(".", 1)[1]
-        results += _guarded(f"{label} {kind}", lambda: module.run(target, kind))
+    chosen = [module for module in (static, *DYNAMIC) if only is None or _label(module) in only]
+    results = static.description_rows(target) if static in chosen else []
+    if target.capped:
+        results.append(CheckResult("static: planned work", WARN, "steps capped", target.capped))
+    jobs = [job for module in chosen for job in group_jobs(target, module, target.interfaces)]
+    unreadable = []
     if only is None or "reference" in only:
         references = [known] if known is not None else []
         if known is None:
             try:
                 references = reference_mod.carried(target)
             except BadInput as error:  # the FMU's own references are broken: its failure
-                results.append(CheckResult("reference: FMI-LS-REF", False, "unreadable", str(error)))
-        for ref in references:
-            for kind in target.interfaces:
-                results += _guarded(f"reference {kind}",
-                                    lambda: reference_mod.run(target, kind, ref, atol, rtol, ttol, plot_dir))
-    return results
+                unreadable.append(CheckResult("reference: FMI-LS-REF", False, "unreadable", str(error)))
+        jobs += [Job(f"reference: {Path(ref.origin).name}",
+                     partial(_reference_rows, target, ref, atol, rtol, ttol, plot_dir))
+                 for ref in references if target.interfaces]
+    for rows in progress(run_contained(jobs, time_limit), f"checking {Path(path).name}", total=len(jobs),
+                         label=lambda rows: rows[0].name if rows else ""):
+        results += rows
+    return results + unreadable
 
 
-def _guarded(label: str, check) -> list[CheckResult]:
-    try:
-        return check()
-    except Exception as error:  # a check's own failure is a failed row with its reason
-        return [CheckResult(label, False, "check failed", f"{type(error).__name__}: {error}")]
+def _label(module) -> str:
+    return module.__name__.rsplit(".", 1)[1]
+
+
+def group_jobs(target: Target, module, kinds) -> list[Job]:
+    """The jobs of one check group for each interface: the module's own split (`jobs`, one per
+    misuse in sequence.py) where it has one, else one job running module.run(target, kind)."""
+    if hasattr(module, "jobs"):
+        return [job for kind in kinds for job in module.jobs(target, kind)]
+    return [Job(f"{_label(module)} {kind}", partial(module.run, target, kind)) for kind in kinds]
+
+
+def _reference_rows(target: Target, ref, atol, rtol, ttol, plot_dir) -> list[CheckResult]:
+    """One reference compared in every interface (one job: a carried one is judged across them)."""
+    return [row for kind in target.interfaces for row in reference_mod.run(target, kind, ref, atol, rtol, ttol,
+                                                                            plot_dir)]
 
 
 def format_table(path: str | Path, results: list[CheckResult]) -> str:

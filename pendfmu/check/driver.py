@@ -39,6 +39,40 @@ MAX_SUBSTEPS = 20_000
 """Substeps one communication step may take before the model counts as too stiff for the driver."""
 
 
+MAX_GROUP_STEPS = 2_000_000
+"""Communication steps one check group may take in all (its runs and the stimulus search): 100
+runs at fmu.MAX_RUN_STEPS, more than any group needs at the cap."""
+
+
+class WorkLimit(PendfmuError, RuntimeError):
+    """A check group took more than MAX_GROUP_STEPS communication steps: the planned work has
+    a cap a model description (many inputs, a long reference) cannot exceed."""
+
+
+class StepBudget:
+    """The communication steps left to the check group running in this process: contain.py
+    starts one per group and stops it after; outside a group (the pytest plugin's fmu_runner)
+    there is no cap."""
+
+    def __init__(self):
+        self.left = math.inf
+
+    def start(self) -> None:
+        self.left = MAX_GROUP_STEPS
+
+    def stop(self) -> None:
+        self.left = math.inf
+
+    def spend(self) -> None:
+        self.left -= 1
+        if self.left < 0:
+            raise WorkLimit(f"the check group took more than {MAX_GROUP_STEPS} communication steps, the cap of its "
+                            f"work: stopped there")
+
+
+BUDGET = StepBudget()
+
+
 class StiffModel(PendfmuError, RuntimeError):
     """The driver's explicit integrator cannot follow the model at this step: a limit of the
     check, not a defect of the FMU (a row that meets it is INCONCLUSIVE)."""
@@ -159,6 +193,7 @@ class Driver:
         if self.ended is not None:  # the FMU ended the simulation: nothing more to compute
             self.time += h
             return
+        BUDGET.spend()
         if inputs is not None:
             self.set_inputs(inputs)
         if self.ended is not None:

@@ -18,11 +18,15 @@ import numpy as np
 from pendfmu.check.driver import Driver  # noqa: F401 (the checks' one way to run the target)
 from pendfmu.check.variables import FLOAT, NUMERIC, elements, is_array
 from pendfmu.errors import BadInput, FMUError
-from pendfmu.simulator.fmi import unpacked_fmu
+from pendfmu.simulator.fmi import UnsafeFMU, unpacked_fmu
 
 
 MAX_FIXED_STEPS = 10_000
 """A default run covers at most this many of an FMU's declared fixed internal steps."""
+MAX_RUN_STEPS = 20_000
+"""Communication steps a run may take when the model description sets the step or the stop
+(4 times the most any Reference FMU or pendfmu's own asks for): a longer plan is capped and
+the row "static: planned work" says how."""
 
 PASS, WARN, FAIL, INCONCLUSIVE = "PASS", "WARN", "FAIL", "INCONCLUSIVE"
 VERDICTS = (PASS, WARN, FAIL, INCONCLUSIVE)
@@ -78,8 +82,11 @@ class Target:
         self.path = Path(path)
         if not self.path.is_file():
             raise BadInput(f"{path}: no such FMU file")
+        self.refused = ""  # why no library of it is loaded (a file name FMI does not allow)
         try:
             self.directory, self.md = unpacked_fmu(self.path.stem, self.path)
+        except UnsafeFMU as error:  # the static check's row says why; nothing else runs
+            self.directory, self.md, self.refused = None, error.description, str(error)
         except Exception as error:  # not a zip, no modelDescription.xml, unreadable XML
             raise BadInput(f"{path}: not a readable FMU ({type(error).__name__}: {error})") from None
         major = str(self.md.fmiVersion).split(".")[0]
@@ -87,7 +94,7 @@ class Target:
             raise BadInput(f"{path}: FMI {self.md.fmiVersion}; pendfmu check reads FMI 2.0 and 3.0 FMUs")
         self.fmi3 = major == "3"
         self.interfaces = [name for name, kind in (("CS", self.md.coSimulation), ("ME", self.md.modelExchange))
-                           if kind is not None]
+                           if kind is not None and not self.refused]
         self._pick_variables(self.md.modelVariables)
         self.shortened = ""
         experiment = self.md.defaultExperiment
@@ -104,6 +111,22 @@ class Target:
         self.step = step if step is not None else (declared_step or self.stop / 500)
         if not (self.stop > 0 and self.step > 0 and self.step < self.stop):
             raise BadInput(f"--stop {self.stop} and --step {self.step}: need 0 < step < stop")
+        self.capped = self._cap(stop is not None, step is not None)
+
+    def _cap(self, stop_given: bool, step_given: bool) -> str:
+        """At most MAX_RUN_STEPS steps a run unless the user chose both --stop and --step: the
+        step lengthened (or, when the user chose it, the stop shortened). What was capped, in
+        words, or "" (a model description's stepSize="1e-300" would plan 1e300 steps)."""
+        planned = self.stop / self.step
+        if planned <= MAX_RUN_STEPS or (stop_given and step_given):
+            return ""
+        before = f"{self.stop:g} s in steps of {self.step:g} s ({planned:.3g} steps)"
+        if step_given:
+            self.stop = self.step * MAX_RUN_STEPS
+        else:
+            self.step = self.stop / MAX_RUN_STEPS
+        return (f"runs of {self.stop:g} s in steps of {self.step:g} s, not {before}: at most {MAX_RUN_STEPS} "
+                f"communication steps a run (--stop and --step choose others)")
 
     def _default_stop(self, declared: float) -> float:
         """The default experiment's stop time, or less where the FMU says it computes with a

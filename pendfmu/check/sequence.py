@@ -3,9 +3,9 @@
 The misuses, each on a fresh instance: a step before initialization (Co-Simulation: fmi2DoStep
 or fmi3DoStep; Model Exchange: EnterContinuousTimeMode outside event mode), an unknown value
 reference, a non-finite input (NaN, then +Inf) followed by a step, and a fixed parameter set
-while stepping. They run in a child process (`python -m pendfmu.check.sequence FMU KIND`) that
-prints one JSON line per misuse; a child that dies (a segfault) reports the misuse it was
-on as "crashed" (FAIL), and a new child goes on with the rest.
+while stepping. Each misuse is a job of its own (`jobs`) for pendfmu/check/contain.py, in a
+child process the other checks do not share: a misuse that crashes the process (a segfault)
+is that misuse's FAIL row, and the others still run.
 
 FMI makes avoiding a misuse the importer's duty and leaves detecting it, and what to do with
 a non-finite input, to the FMU: a misuse accepted, an error without a message, or a NaN
@@ -14,56 +14,32 @@ carried on to the outputs is a WARN with the section that says so (STANDARD), no
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
-import sys
-from pathlib import Path
+from functools import partial
 
+from pendfmu.check.contain import Job
 from pendfmu.check.fmu import INCONCLUSIVE, WARN, CheckResult, Target
 from pendfmu.check.variables import FLOAT, accessor, is_array
 
 CASES = ("step before initialization", "unknown value reference", "NaN input", "Inf input",
          "fixed parameter set while stepping")
 ERROR = 2  # fmi2Discard or worse answers a misuse
-CHILD = [sys.executable, "-m", "pendfmu.check.sequence"]
-"""The child's command line, before its arguments (FMU KIND STEP CASE...)."""
 
 
-def run(target: Target, kind: str) -> list[CheckResult]:
-    reports: dict[str, dict] = {}
-    remaining = list(CASES)
-    while remaining:
-        command = [*CHILD, str(target.path.resolve()), kind, str(target.step), *remaining]
-        package = str(Path(__file__).resolve().parents[2])  # this pendfmu, whatever the child's path
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [package, os.environ.get("PYTHONPATH")])))
-        done = subprocess.run(command, capture_output=True, text=True, timeout=120, env=env)
-        for line in done.stdout.splitlines():
-            if line.startswith("{"):
-                report = json.loads(line)
-                reports[report["case"]] = report
-        left = [case for case in remaining if case not in reports]
-        if done.returncode != 0 and left:
-            reason = f"signal {-done.returncode}" if done.returncode < 0 else f"exit code {done.returncode}"
-            reports[left[0]] = {"case": left[0], "crashed": reason,
-                                "stderr": done.stderr.strip().splitlines()[-1:] or [""]}
-            left = left[1:]
-        elif left:
-            break
-        remaining = left
-    results = []
-    for case in CASES:
-        name = f"sequence: {case} {kind}"
-        report = reports.get(case)
-        if report is None:
-            results.append(CheckResult(name, INCONCLUSIVE, "no answer", "the check's child process reported nothing"))
-        elif "crashed" in report:
-            results.append(CheckResult(name, False, "crashed", f"the FMU crashed the process ({report['crashed']}) "
-                                       f"on the misuse '{case}': {report['stderr'][0]}"))
-        else:
-            results.append(_judge(name, case, report))
-    return results
+def jobs(target: Target, kind: str) -> list[Job]:
+    """One job per misuse, its row named like the job; the misuses of an interface share a
+    child process of their own (contain.py: what a misuse breaks must not reach other checks)."""
+    return [Job(f"sequence: {case} {kind}", partial(case_rows, target, kind, case), f"sequence {kind}")
+            for case in CASES]
+
+
+def case_rows(target: Target, kind: str, case: str) -> list[CheckResult]:
+    """The row of one misuse on a fresh instance."""
+    try:
+        report = _misuse(target, kind, target.step, case)
+    except Exception as error:  # the checker's own trouble: said, not crashed
+        report = {"status": -1, "logged": [f"{type(error).__name__}: {error}"], "call": "?"}
+    return [_judge(f"sequence: {case} {kind}", case, report)]
 
 
 STANDARD = {
@@ -106,19 +82,6 @@ def _judge(name: str, case: str, report: dict) -> CheckResult:
     return CheckResult(name, WARN, f"{what} returned status {status}",
                        f"a {case} was accepted ({what} returned status {status}) instead of an error{said}; "
                        f"{STANDARD['accepted']}")
-
-
-# -- the child process
-
-def _child(path: str, kind: str, step: float, cases: list[str]) -> None:
-    target = Target(path)
-    for case in cases:
-        report = {"case": case}
-        try:
-            report.update(_misuse(target, kind, step, case))
-        except Exception as error:  # the checker's own trouble: said, not crashed
-            report.update(status=-1, logged=[f"{type(error).__name__}: {error}"], call="?")
-        print(json.dumps(report), flush=True)
 
 
 def _attempt(unit, call: str, function, *args) -> dict:
@@ -211,6 +174,3 @@ def _fixed_parameter(unit, step: float) -> dict:
     function, setter = _setter(unit, v)
     return _attempt(unit, f"{function}({v.name})", lambda: setter([v.valueReference], [value]))
 
-
-if __name__ == "__main__":
-    _child(sys.argv[1], sys.argv[2], float(sys.argv[3]), sys.argv[4:])

@@ -2,10 +2,13 @@
 token, the capabilities.
 
 Nothing here steps the model further than a few calls: fmpy's `validate_fmu` reads the XML
-only, so the binary is asked directly whether it has every function FMI requires for the
-interfaces it declares (ctypes lookups), whether instantiation refuses a GUID (FMI 2.0) or
-instantiation token (FMI 3.0) other than the one in modelDescription.xml, and whether what
-the FMU declares it can do works.
+only, and so do the checks of what it leaves out (`description_rows`: variable ranges, an
+interface at all, file names the loader may build); then the binary is asked directly whether
+it has every function FMI requires for the interfaces it declares (ctypes lookups), whether
+instantiation refuses a GUID (FMI 2.0) or instantiation token (FMI 3.0) other than the one in
+modelDescription.xml, and whether what the FMU declares it can do works (`run`, one
+job per interface in a child process: pendfmu/check/contain.py). An FMU whose file names FMI
+does not allow gets no binary rows: nothing of it is loaded.
 """
 
 from __future__ import annotations
@@ -76,13 +79,40 @@ def library_path(target: Target, kind: str):
 
 
 def check_xml(target: Target) -> CheckResult:
-    problems = validate_fmu(str(target.path))
+    """fmpy's validation, the file names (simulator.fmi.unsafe_names) and the variable ranges."""
+    problems = ([target.refused] if target.refused else []) + [str(p).strip() for p in validate_fmu(str(target.path))]
+    problems += range_problems(target.md.modelVariables)
     if problems:
-        return CheckResult("static: model description", False, f"{len(problems)} problems",
-                           "; ".join(str(p).strip() for p in problems[:3]))
+        count = f"{len(problems)} problem{'s' if len(problems) > 1 else ''}"
+        return CheckResult("static: model description", False, count, "; ".join(problems[:3]))
     figure = "; ".join([f"FMI {target.md.fmiVersion}, {len(target.md.modelVariables)} variables valid",
                         *target.unchecked, *([target.shortened] if target.shortened else [])])
     return CheckResult("static: model description", True, figure)
+
+
+def range_problems(variables) -> list[str]:
+    """Each variable whose declared min exceeds its max, or whose start value (every element
+    of an array's) lies outside [min, max]: FMI requires min <= start <= max."""
+    problems = []
+    for v in variables:
+        low, high = _number(getattr(v, "min", None)), _number(getattr(v, "max", None))
+        if low is not None and high is not None and low > high:
+            problems.append(f"variable {v.name}: min {low:g} exceeds max {high:g} (FMI: min <= max)")
+            continue
+        starts = [_number(part) for part in str(v.start).split()] if getattr(v, "start", None) is not None else []
+        bounds = (-np.inf if low is None else low, np.inf if high is None else high)
+        outside = [x for x in starts if x is not None and not bounds[0] <= x <= bounds[1]]
+        if outside:
+            problems.append(f"variable {v.name}: start {outside[0]:g} outside [{bounds[0]:g}, {bounds[1]:g}] "
+                            f"(FMI: min <= start <= max)")
+    return problems
+
+
+def _number(text) -> float | None:
+    try:
+        return float(text) if text is not None else None
+    except (TypeError, ValueError):
+        return None  # not a number (a Boolean's true): no range to check
 
 
 def check_exports(target: Target, kind: str) -> CheckResult:
@@ -211,17 +241,25 @@ def _derivatives(unit: Driver, interface, tried: list[str]) -> tuple[str, str] |
     return None
 
 
-def run(target: Target) -> list[CheckResult]:
+def description_rows(target: Target) -> list[CheckResult]:
+    """The rows read from the model description alone (nothing loaded): its validity, and an
+    interface to check: none at all is a FAIL (FMI requires one), Scheduled Execution only
+    INCONCLUSIVE (pendfmu check drives Co-Simulation and Model Exchange)."""
     results = [check_xml(target)]
-    if not target.interfaces:
-        offered = ["Scheduled Execution"] if getattr(target.md, "scheduledExecution", None) is not None else []
-        results.append(CheckResult("static: interfaces", INCONCLUSIVE, "no Co-Simulation or Model Exchange",
-                                   f"{target.name} offers {' and '.join(offered) or 'no interface pendfmu knows'}; "
-                                   f"pendfmu check drives Co-Simulation and Model Exchange only, so nothing ran"))
-    for kind in target.interfaces:
-        results.append(check_exports(target, kind))
-        if not results[-1].passed:
-            continue
-        results.append(check_guid(target, kind))
-        results.append(check_capabilities(target, kind))
+    if not target.interfaces and not target.refused:
+        offered = getattr(target.md, "scheduledExecution", None) is not None
+        results.append(CheckResult(
+            "static: interfaces", INCONCLUSIVE if offered else False, "no Co-Simulation or Model Exchange",
+            f"{target.name} offers Scheduled Execution only; pendfmu check drives Co-Simulation and Model Exchange, "
+            f"so nothing ran" if offered else
+            f"{target.name} declares no interface (FMI requires a <CoSimulation> or <ModelExchange> element, or FMI "
+            f"3.0's <ScheduledExecution>): nothing can run it"))
+    return results
+
+
+def run(target: Target, kind: str) -> list[CheckResult]:
+    """The rows that load the binary for one interface (a job of its own: contain.py)."""
+    results = [check_exports(target, kind)]
+    if results[-1].passed:
+        results += [check_guid(target, kind), check_capabilities(target, kind)]
     return results

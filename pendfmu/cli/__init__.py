@@ -4,7 +4,8 @@ One module per subcommand, each with ``add_arguments(parser)`` and ``run(args)``
 Exit codes (a contract other tools script against): 0 success, 2 bad input (a one-line
 message naming the file, column or value; no traceback), 1 internal failure, 3 warnings
 under ``--strict`` (suspicious data: nothing fitted; a suspicious result: written), 4 the
-model failed (an FMU refused a value or a step), 5 the FMUs cannot be built here.
+model failed (an FMU refused a value or a step), 5 the FMUs cannot be built here, 6 the
+worker processes or the Dask cluster failed the work (killed, every worker lost).
 """
 
 from __future__ import annotations
@@ -19,8 +20,8 @@ from collections.abc import Sequence
 from pendfmu import __version__
 from pendfmu.cli import build, check, control, demo, export, fit, laws, recording_format, report, rig, simulate, system
 from pendfmu.cli.argv import command_options, untangle
-from pendfmu.errors import (EXIT_BAD_INPUT, EXIT_BUILD_FAILED, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, BadInput, BuildError,
-                            FMUError, OptionError, Suspicious)
+from pendfmu.errors import (EXIT_BAD_INPUT, EXIT_BUILD_FAILED, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, EXIT_WORKERS_FAILED,
+                            BadInput, BuildError, FMUError, OptionError, Suspicious, WorkersFailed)
 from pendfmu.suggest import did_you_mean
 
 SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "laws": laws,
@@ -140,11 +141,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BuildError as error:
         print(f"pendfmu {args.command}: cannot build the FMUs: {error}", file=sys.stderr)
         return EXIT_BUILD_FAILED
+    except WorkersFailed as error:
+        print(f"pendfmu {args.command}: the workers failed: {error}", file=sys.stderr)
+        return EXIT_WORKERS_FAILED
     except KeyboardInterrupt:
         print(f"pendfmu {args.command}: interrupted", file=sys.stderr)
         return 130
-    except Exception as error:  # an internal failure: say so, keep the details on demand
-        print(f"pendfmu {args.command}: internal failure: {type(error).__name__}: {error}", file=sys.stderr)
-        if args.debug or os.environ.get("PENDFMU_DEBUG"):
-            traceback.print_exc()
-        return 1
+    except OSError as error:  # the system refused a file (a full disk, a folder made read-only): not pendfmu's bug
+        if error.filename is None:
+            return _internal_failure(args, error)
+        print(f"pendfmu {args.command}: error: {error.filename}: {error.strerror or error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except Exception as error:
+        return _internal_failure(args, error)
+
+
+def _internal_failure(args: argparse.Namespace, error: Exception) -> int:
+    """An internal failure: said in one line, the details on demand (--debug, PENDFMU_DEBUG)."""
+    print(f"pendfmu {args.command}: internal failure: {type(error).__name__}: {error}", file=sys.stderr)
+    if args.debug or os.environ.get("PENDFMU_DEBUG"):
+        traceback.print_exc()
+    return 1

@@ -22,11 +22,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from pendfmu.errors import UsageError
+    from pendfmu.cli.outputs import check_output_folder
     from pendfmu.fmubuild import build_all
 
-    if args.out is not None and args.out.exists() and not args.out.is_dir():
-        raise UsageError(f"--out {args.out}: exists and is not a directory")
+    if args.out is not None:
+        check_output_folder(args.out, "--out")
     for version in sorted(set(args.fmi_versions or (2, 3))):
         for name, path in build_all(force=args.force, folder=args.out, fmi_version=version).items():
             print(f"{name}: {path}")

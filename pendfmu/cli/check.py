@@ -1,13 +1,15 @@
 """Check FMI 2.0 and 3.0 FMUs with a battery of tests and print one row per check.
 
-Static: the model description (fmpy's validate_fmu), every function FMI 2.0 or 3.0 requires
-exported by the binary, the GUID (instantiation token) checked at instantiation, the declared
-capabilities working. Dynamic, for Co-Simulation and Model Exchange (whichever the FMU has):
-misuse answered with an error status (run in child processes: a crash is a FAIL), the events
-the stimulus shows, two fresh instances and a reset instance giving identical outputs, FMU
-state rollback (around events too) and serialization reproducing a run bit for bit, step-size
-convergence (h, h/2, h/4) within --step-rtol or at the --order stated, and finite outputs over
-each input's declared range, else by decades up to --input-limit times its nominal.
+Static: the model description (fmpy's validate_fmu; min <= start <= max; a Co-Simulation or
+Model Exchange interface; a modelIdentifier that is a C identifier, else no library of the FMU
+is loaded), every function FMI 2.0 or 3.0 requires exported by the binary, the GUID
+(instantiation token) checked at instantiation, the declared capabilities working. Dynamic,
+for Co-Simulation and Model Exchange (whichever the FMU has): misuse answered with an error
+status, the events the stimulus shows, two fresh instances and a reset instance giving
+identical outputs, FMU state rollback (around events too) and serialization reproducing a run
+bit for bit, step-size convergence (h, h/2, h/4) within --step-rtol or at the --order stated,
+and finite outputs over each input's declared range, else by decades up to --input-limit
+times its nominal.
 
 Without --input the stimulus is searched for (pendfmu/check/stimulus.py): each input over its
 declared range, else around its start value at 1, 10, 100, ... times its nominal up to
@@ -28,6 +30,12 @@ column is compared inside a tolerance tube: at each time t the result must lie w
 nominal) (nominal: the variable's nominal attribute, else the column's range). Without
 --reference, reference results the FMU carries (FMI-LS-REF, as the FMI standard's Reference
 FMUs ship them: extra/org.fmi-standard.fmi-ls-ref/<Model>_out.csv) are used.
+
+Every check that loads the FMU's binary runs in a child process (pendfmu/check/contain.py): a
+crash (SIGSEGV, an abort) or a check group that outlives --time-limit is a FAIL row naming the
+signal or the limit, and the other checks still run. A child may allocate 2 GiB beyond what it
+inherits, and the model description's default experiment plans at most 20000 communication
+steps a run (a row "static: planned work" says what was capped).
 """
 
 from __future__ import annotations
@@ -67,6 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ttol", type=float, help="time tolerance [s] at discontinuities (default: a tenth of the "
                         "reference's median sample interval)")
     parser.add_argument("--plot", metavar="DIR", help="write a PNG per variable outside its tube into DIR")
+    parser.add_argument("--time-limit", type=float, metavar="SECONDS", help="seconds each check group may take in "
+                        "its child process before it is a FAIL row and the other checks go on (default 120: "
+                        "pendfmu.check.contain.TIME_LIMIT); a child may also allocate at most 2 GiB")
 
 
 def _tolerance(value: float | None, option: str, positive: bool = False) -> None:
@@ -78,6 +89,7 @@ def _tolerance(value: float | None, option: str, positive: bool = False) -> None
 
 def _options(args: argparse.Namespace) -> dict:
     """The dynamic checks' options, checked (bad input, exit 2, before any check runs)."""
+    from pendfmu.check.contain import TIME_LIMIT
     from pendfmu.check.fmu import DEFAULT_INPUT_LIMIT, DEFAULT_STEP_RTOL
     from pendfmu.errors import BadInput
 
@@ -85,8 +97,10 @@ def _options(args: argparse.Namespace) -> dict:
         _tolerance(value, option, positive=True)
     if args.input_reference and not args.input:
         raise BadInput("--input-reference needs --input REC.csv (the recording whose other columns are compared)")
+    _tolerance(args.time_limit, "--time-limit", positive=True)
     return {"input_limit": DEFAULT_INPUT_LIMIT if args.input_limit is None else args.input_limit,
-            "order": args.order, "step_rtol": DEFAULT_STEP_RTOL if args.step_rtol is None else args.step_rtol}
+            "order": args.order, "step_rtol": DEFAULT_STEP_RTOL if args.step_rtol is None else args.step_rtol,
+            "time_limit": TIME_LIMIT if args.time_limit is None else args.time_limit}
 
 
 def run(args: argparse.Namespace) -> int:

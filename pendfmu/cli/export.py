@@ -58,9 +58,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pendfmu.cli.outputs import check_output_folder
     from pendfmu.export import plan_export, write_export
     from pendfmu.parameters import read_parameters
 
+    check_output_folder(args.out, "--out")
     if args.input and not args.reference:
         from pendfmu.errors import UsageError
 
@@ -91,13 +93,13 @@ def _fitted_model(params: str) -> str | None:
     """The user's FMU or SSP file a result file of `pendfmu fit --fmu/--system` was fitted to
     (its fit.model; None for a parameters file or a fit of pendfmu's rig): what to export for
     when neither --fmu nor --system names it."""
-    import json
     from pathlib import Path
 
     from pendfmu.errors import UsageError
+    from pendfmu.jsontext import parse_json
 
     try:
-        fit = json.loads(Path(params).read_text()).get("fit")
+        fit = parse_json(Path(params).read_text()).get("fit")
     except (OSError, ValueError, AttributeError):
         return None  # read_parameters says what is wrong with the file
     model = fit.get("model") if isinstance(fit, dict) else None

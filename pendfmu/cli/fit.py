@@ -37,7 +37,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_parameter_options(parser)
     add_data_options(parser, model=True)
     add_search_options(parser)
-    parser.add_argument("--checkpoint", help="checkpoint file written on Ctrl-C (default: OUT with .checkpoint)")
+    parser.add_argument("--checkpoint", help="checkpoint file, written on Ctrl-C, SIGTERM or SIGHUP and periodically during "
+                                             "the search (default: OUT with .checkpoint); deleted when the fit ends")
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted fit from its checkpoint (same command otherwise)")
     parser.add_argument("--uncertainty", choices=("bootstrap", "jacobian", "sandwich"), default="bootstrap",
@@ -134,7 +135,8 @@ def run(args: argparse.Namespace) -> int:
 
     from pendfmu.cli.outputs import check_output_file, check_output_folder
     from pendfmu.errors import EXIT_SUSPICIOUS, Suspicious
-    from pendfmu.fitting.checkpoint import Checkpoint, Interrupted, spec_fingerprint
+    from pendfmu.fitting.checkpoint import (Checkpoint, Interrupted, refuse_unsafe_path, spec_fingerprint,
+                                            stop_signals_interrupt)
     from pendfmu.fitting.identification import fit
     from pendfmu.fitting.provenance import with_command
     from pendfmu.fitting.spec import check_applicable
@@ -146,6 +148,7 @@ def run(args: argparse.Namespace) -> int:
     path = check_output_file(args.checkpoint or f"{args.out}.checkpoint", "--checkpoint")
     spec = fit_spec(args)
     check_applicable(spec)
+    refuse_unsafe_path(path, args.out, spec)
     key = spec_fingerprint(spec)
     checkpoint = Checkpoint.load(path, key) if args.resume else Checkpoint(path, key)
     printed: list[str] = []
@@ -155,7 +158,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"warning: {message}", file=sys.stderr, flush=True)
 
     try:
-        result = fit(spec, checkpoint=checkpoint, warn=warn, strict=args.strict)
+        with stop_signals_interrupt():
+            result = fit(spec, checkpoint=checkpoint, warn=warn, strict=args.strict)
     except Suspicious:
         print("pendfmu fit: --strict: not fitted, the recordings look wrong (warnings above)", file=sys.stderr)
         return EXIT_SUSPICIOUS
@@ -165,10 +169,14 @@ def run(args: argparse.Namespace) -> int:
         print(f"interrupted: best values so far in {args.out}; resume with the same command and --resume "
               f"(checkpoint {path})")
         return 130
+    except KeyboardInterrupt:  # after a search: its costs are kept all the same
+        checkpoint.save()
+        print(f"pendfmu fit: interrupted; resume with the same command and --resume (checkpoint {path})",
+              file=sys.stderr)
+        return 130
     result.provenance = with_command(result.provenance, getattr(args, "command_line", None))
     result.write_json(args.out)
-    if path.exists():
-        path.unlink()  # the fit is complete: its checkpoint has served
+    checkpoint.discard()  # the fit is complete: its checkpoint has served (if the file is still its own)
     _print_result(args, spec, result, printed)
     return EXIT_SUSPICIOUS if args.strict and result.warnings else 0  # the result is written either way
 

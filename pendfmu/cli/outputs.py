@@ -32,7 +32,7 @@ def check_output_folder(path: str | os.PathLike, option: str) -> Path:
     and its nearest existing parent writable."""
     path = Path(path)
     if path.exists() and not path.is_dir():
-        raise UsageError(f"{option} {path}: is a file, not a folder")
+        raise UsageError(f"{option} {path}: exists and is not a directory")
     existing = path
     while not existing.exists():
         existing = existing.parent

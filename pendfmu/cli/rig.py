@@ -23,9 +23,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pendfmu.cli.outputs import check_output_folder
     from pendfmu.parameters import read_parameters
     from pendfmu.virtual_rig import FACTOR, draw_truth, standard_experiments, write_experiments
 
+    check_output_folder(args.out, "--out")
     if args.params:
         truth, about = read_parameters(args.params), {"described": f"MODEL.md's reference rig with {args.params}"}
         experiments = None

@@ -27,6 +27,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from pendfmu.errors import UsageError
+from pendfmu.escaping import xml_text
 from pendfmu.export.fmu import START_FILE, write_parameterized_fmu
 from pendfmu.export.modelica import write_modifiers
 from pendfmu.export.plan import ExportPlan, plan_export
@@ -49,7 +50,7 @@ def write_export(plan: ExportPlan, out_dir: str | Path) -> list[Path]:
     paths = [write_parameterized_fmu(name, values, out_dir / f"{name}.fmu", plan.source)
              for name, values in plan.components.items()]
     values = {name: plan.start_values(name) for name in plan.components}
-    set_name = Path(plan.source).stem if plan.source.endswith(".json") else "exported"
+    set_name = xml_text(Path(plan.source).stem) if plan.source.endswith(".json") else "exported"
     paths.append(write_parameter_values(values, out_dir / SSV_FILE, set_name))
     paths.append(write_modifiers(plan, out_dir / MODELICA_FILE))
     blocks = [block_values(name, fmu, values[name], plan.components[name], plan.source)

@@ -22,7 +22,6 @@ and the binary finds the start file through FMI 3.0's resourcePath.
 from __future__ import annotations
 
 import datetime
-import os
 import uuid
 import zipfile
 from collections.abc import Mapping
@@ -31,11 +30,16 @@ from pathlib import Path
 from lxml import etree
 
 from pendfmu import __version__
+from pendfmu.atomic import write_atomically
 from pendfmu.errors import UsageError
+from pendfmu.escaping import one_line, xml_text
 from pendfmu.fmubuild import ensure_fmu
 
 MODEL_DESCRIPTION = "modelDescription.xml"
 START_FILE = "resources/pendfmu-start.txt"
+# The longest comment line of the start file: start.c reads lines of at most 255 characters,
+# and the rest of a longer one would be read as a line of its own (a value line, refused).
+START_COMMENT_LENGTH = 200
 
 
 def new_guid() -> str:
@@ -81,8 +85,8 @@ def parameterized_description(original: bytes, values: Mapping[str, float], guid
     root = _parse(original)
     root.set(_token_attribute(root), guid)
     changed = ", ".join(values) if values else "no values changed"
-    root.set("description", f"{root.get('description', '')} [parameterized by pendfmu export from {source}: "
-                            f"{changed}]")
+    root.set("description", f"{root.get('description', '')} [parameterized by pendfmu export from "
+                            f"{xml_text(source)}: {changed}]")
     root.set("generationTool", f"pendfmu {__version__} export (parameterized copy of {root.get('generationTool')})")
     root.set("generationDateAndTime", _now())
     found = set()
@@ -108,12 +112,18 @@ def start_file_text(description: bytes) -> str:
     """
     root = _parse(description)
     lines = [f"guid {root.get(_token_attribute(root))}",
-             f"# start values of {root.get('modelName')} parameters: <value reference> <value>"]
+             _start_comment(f"start values of {root.get('modelName')} parameters: <value reference> <value>")]
     for name, causality, real, value_reference in _variables(root):
         if causality == "parameter" and real is not None:
-            lines.append(f"# {name} [{real.get('unit', '')}]")
+            lines.append(_start_comment(f"{name} [{real.get('unit', '')}]"))
             lines.append(f"{value_reference} {real.get('start')}")
     return "\n".join(lines) + "\n"
+
+
+def _start_comment(text: str) -> str:
+    """A comment line of the start file: one line (a name may hold line breaks), short
+    enough for start.c's reader (START_COMMENT_LENGTH)."""
+    return f"# {one_line(text)}"[:START_COMMENT_LENGTH]
 
 
 def _copy_info(info: zipfile.ZipInfo) -> zipfile.ZipInfo:
@@ -135,9 +145,9 @@ def write_parameterized_fmu(name: str, values: Mapping[str, float], target: str 
     """
     original, target = ensure_fmu(name, fmi_version), Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    partial = target.with_name(f".{target.name}.{os.getpid()}.part")
-    try:
-        with zipfile.ZipFile(original) as src, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as dst:
+
+    def write(out) -> None:
+        with zipfile.ZipFile(original) as src, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as dst:
             description = parameterized_description(src.read(MODEL_DESCRIPTION), values, new_guid(), source)
             for info in src.infolist():
                 if info.filename == MODEL_DESCRIPTION:
@@ -148,7 +158,5 @@ def write_parameterized_fmu(name: str, values: Mapping[str, float], target: str 
             start.compress_type = zipfile.ZIP_DEFLATED
             start.external_attr = 0o644 << 16
             dst.writestr(start, start_file_text(description))
-        os.replace(partial, target)
-    finally:
-        partial.unlink(missing_ok=True)
-    return target
+
+    return write_atomically(target, writer=write)

@@ -30,7 +30,6 @@ earlier set); `carried(path)` reads them back for `pendfmu check`.
 
 from __future__ import annotations
 
-import os
 import re
 import zipfile
 from dataclasses import dataclass, field
@@ -38,7 +37,9 @@ from pathlib import Path, PurePosixPath
 
 from lxml import etree
 
+from pendfmu.atomic import write_atomically
 from pendfmu.errors import BadInput
+from pendfmu.escaping import xml_text
 
 FOLDER = "extra/org.fmi-standard.fmi-ls-ref"
 MANIFEST = f"{FOLDER}/fmi-ls-manifest.xml"
@@ -67,7 +68,7 @@ def manifest_xml(related: list[tuple[str, str, str, str]]) -> bytes:
         entry.set("source", source)
         entry.set("role", role)
         entry.set("type", kind)
-        entry.set("description", description)
+        entry.set("description", xml_text(description))
     return etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True)
 
 
@@ -166,9 +167,8 @@ def _replace_folder(fmu: Path, members: dict[str, bytes]) -> None:
     """Rewrite the FMU with `members` in place of whatever it had under FOLDER."""
     from pendfmu.export.fmu import _copy_info
 
-    partial = fmu.with_name(f".{fmu.name}.{os.getpid()}.ref.part")
-    try:
-        with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as dst:
+    def write(out) -> None:
+        with zipfile.ZipFile(fmu) as src, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as dst:
             for info in src.infolist():
                 if not info.filename.startswith(FOLDER + "/"):
                     dst.writestr(_copy_info(info), src.read(info))
@@ -177,9 +177,8 @@ def _replace_folder(fmu: Path, members: dict[str, bytes]) -> None:
                 info.compress_type = zipfile.ZIP_DEFLATED
                 info.external_attr = 0o644 << 16
                 dst.writestr(info, data)
-        os.replace(partial, fmu)
-    finally:
-        partial.unlink(missing_ok=True)
+
+    write_atomically(fmu, writer=write)
 
 
 def _now_tuple():
@@ -229,7 +228,7 @@ def carried(path: str | Path) -> Shipped:
     Related file of role "result" (a CSV) with the stimulus beside it (X_out.csv: X_in.csv),
     and each experiment of a pendfmu 0.x experiments.xml. Raises BadInput for a manifest
     whose files cannot be told apart (manifest_problems' errors); a file it names that the
-    FMU lacks is a note."""
+    FMU lacks is a note. BadInput too for a member that is not UTF-8 text or not XML."""
     with zipfile.ZipFile(path) as archive:
         if MANIFEST not in archive.namelist():
             return Shipped()
@@ -257,9 +256,18 @@ def carried(path: str | Path) -> Shipped:
         for member in results:
             if member not in listed:
                 stimulus = _stimulus(member) if _stimulus(member) in archive.namelist() else None
-                shipped.results.append(Carried(member, archive.read(member).decode(), stimulus,
-                                               archive.read(stimulus).decode() if stimulus else None))
+                shipped.results.append(Carried(member, _text(archive, member), stimulus,
+                                               _text(archive, stimulus) if stimulus else None))
         return shipped
+
+
+def _text(archive: zipfile.ZipFile, member: str) -> str:
+    """A member's text; BadInput naming the FMU and the member when it is not UTF-8."""
+    try:
+        return archive.read(member).decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise BadInput(f"{archive.filename}: {member}: not UTF-8 text (byte {error.start}: "
+                       f"{error.object[error.start:error.start + 1]!r})") from None
 
 
 def _stimulus(result: str) -> str | None:
@@ -270,12 +278,13 @@ def _stimulus(result: str) -> str | None:
 def _experiments(archive: zipfile.ZipFile, member: str, notes: list[str]) -> list[Carried]:
     """The reference results and stimuli of pendfmu 0.x's experiments.xml (<Experiments>
     <Experiment><Stimuli source/><References source/></Experiment>); a file it names that
-    the FMU lacks is a note. An experiment file in another format is a note too."""
+    the FMU lacks is a note. An experiment file in another XML format is a note too; one that
+    is not XML is BadInput."""
     try:
         root = etree.fromstring(archive.read(member))
-    except etree.XMLSyntaxError:
-        root = None
-    if root is None or root.tag != "Experiments":
+    except etree.XMLSyntaxError as error:  # broken (or an entity bomb): the FMU's failure, named
+        raise BadInput(f"{archive.filename}: {member}: not XML: {error}") from None
+    if root.tag != "Experiments":
         notes.append(f"{member}: an experiment file pendfmu check does not read")
         return []
     found = []
@@ -288,5 +297,5 @@ def _experiments(archive: zipfile.ZipFile, member: str, notes: list[str]) -> lis
         if ref is None or (stimuli is not None and stim is None):
             notes.append(f"{member} names a file the FMU does not contain")
             continue
-        found.append(Carried(ref, archive.read(ref).decode(), stim, archive.read(stim).decode() if stim else None))
+        found.append(Carried(ref, _text(archive, ref), stim, _text(archive, stim) if stim else None))
     return found

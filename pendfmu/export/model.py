@@ -24,11 +24,12 @@ co-simulation); give such a tool the values (start_values=...), or the SSV.
 
 from __future__ import annotations
 
-import os
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 
+from pendfmu.atomic import write_atomically
+from pendfmu.escaping import xml_text
 from pendfmu.export.fmu import MODEL_DESCRIPTION, START_FILE, _copy_info, _now, _parse, start_file_text
 from pendfmu.simulator.model import Model
 from pendfmu.ssp import ParameterSet, ParameterValue, write_ssv
@@ -64,9 +65,8 @@ def _parameterized_copy(original: Path, values: Mapping[str, float], target: Pat
     pendfmu wrote (the FMUs packed in a pendfmu SSP) carries a start file its binary computes
     with: it is written anew from the new description, so the binary computes with the values
     the copy declares, not the ones it was packed with."""
-    partial = target.with_name(f".{target.name}.{os.getpid()}.part")
-    try:
-        with zipfile.ZipFile(original) as src, zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as dst:
+    def write(out) -> None:
+        with zipfile.ZipFile(original) as src, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as dst:
             description = _with_start_values(src.read(MODEL_DESCRIPTION), values, source)
             for info in src.infolist():
                 data = src.read(info)
@@ -75,10 +75,8 @@ def _parameterized_copy(original: Path, values: Mapping[str, float], target: Pat
                 elif info.filename == START_FILE:
                     data = start_file_text(description).encode()
                 dst.writestr(_copy_info(info), data)
-        os.replace(partial, target)
-    finally:
-        partial.unlink(missing_ok=True)
-    return target
+
+    return write_atomically(target, writer=write)
 
 
 def _with_start_values(description: bytes, values: Mapping[str, float], source: str) -> bytes:
@@ -86,7 +84,8 @@ def _with_start_values(description: bytes, values: Mapping[str, float], source: 
     from lxml import etree
 
     root = _parse(description)
-    root.set("description", f"{root.get('description', '')} [start values from {source}: {', '.join(values)}]")
+    root.set("description", f"{root.get('description', '')} [start values from {xml_text(source)}: "
+                            f"{', '.join(values)}]")
     root.set("generationDateAndTime", _now())
     for variable in root.iterfind("ModelVariables/ScalarVariable"):
         real = variable.find("Real")

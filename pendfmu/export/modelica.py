@@ -25,8 +25,10 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from pendfmu import __version__
-from pendfmu.errors import UsageError
+from pendfmu.atomic import write_atomically
 from pendfmu.components import COMPONENTS
+from pendfmu.errors import UsageError
+from pendfmu.escaping import modelica_identifier, modelica_string, one_line
 from pendfmu.export.plan import ExportPlan, refusal
 
 LIBRARY = "PendulumID"
@@ -53,7 +55,7 @@ def _entries(component: str, values: Mapping[str, float], given: Mapping[str, fl
         if name in FMU_ONLY:
             continue
         unit = table[name].unit or "1"
-        out.append((f"{name} = {_number(value)}", unit if name in given else f"{unit} (default)"))
+        out.append((f"{modelica_identifier(name)} = {_number(value)}", unit if name in given else f"{unit} (default)"))
     return out
 
 
@@ -153,23 +155,15 @@ def modifiers_text(plan: ExportPlan) -> str:
     """The whole modifiers.mo: header comments, then package PendfmuExport."""
     header = [
         f"// Parameters for the Modelica library {LIBRARY}, written by pendfmu {__version__} export",
-        f"// from {plan.source}. Load modelica/{LIBRARY}/package.mo first, then this file.",
+        f"// from {one_line(plan.source)}. Load modelica/{LIBRARY}/package.mo first, then this file.",
         "// Units in comments are those of the declarations; '(default)' marks values not given.",
-        *(f"// {name} not exported: {why}" for name, why in plan.skipped.items()),
+        *(f"// {one_line(name)} not exported: {one_line(why)}" for name, why in plan.skipped.items()),
     ]
-    body = [f'package {PACKAGE} "Parameters exported by pendfmu from {_escape(plan.source)}"',
+    body = [f'package {PACKAGE} {modelica_string(f"Parameters exported by pendfmu from {plan.source}")}',
             *declarations(plan), "", *complete_model(plan), f"end {PACKAGE};"]
     return "\n".join(header + body) + "\n"
 
 
-def _escape(text: str) -> str:
-    """Text safe inside a Modelica string literal."""
-    return text.replace("\\", "\\\\").replace('"', '\\"')
-
-
 def write_modifiers(plan: ExportPlan, path: str | Path) -> Path:
     """Write the Modelica text of `plan` to `path`."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(modifiers_text(plan), encoding="utf-8")
-    return path
+    return write_atomically(path, modifiers_text(plan))

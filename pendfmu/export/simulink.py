@@ -38,7 +38,9 @@ from pathlib import Path
 import numpy as np
 
 from pendfmu import __version__
+from pendfmu.atomic import write_atomically
 from pendfmu.errors import BadInput
+from pendfmu.escaping import matlab_string, one_line
 
 MATLAB_FILE = "set_parameters.m"
 MAT_FILE = "parameters.mat"
@@ -99,12 +101,8 @@ def matlab_value(value: float, type_: str, what: str) -> str:
     return f"{float(value):.17g}"
 
 
-def _quoted(text: str) -> str:
-    return "'" + text.replace("'", "''") + "'"
-
-
 def _table(block: BlockValues) -> list[str]:
-    rows = [[_quoted(x) for x in row] for row in zip(block.names, block.texts(), block.units, block.types,
+    rows = [[matlab_string(x) for x in row] for row in zip(block.names, block.texts(), block.units, block.types,
                                                      block.origins)]
     if not rows:
         return ["c.parameters = cell(0, 5);"]
@@ -116,19 +114,20 @@ def _table(block: BlockValues) -> list[str]:
 def matlab_script(blocks: Sequence[BlockValues], source: str) -> str:
     """The text of set_parameters.m for `blocks`."""
     template = resources.files("pendfmu.export").joinpath(TEMPLATE).read_text(encoding="utf-8")
-    data = ["function source = exported_source()", f"source = {_quoted(source)};", "end", "", "",
+    data = ["function source = exported_source()", f"source = {matlab_string(source)};", "end", "", "",
             "function exported = exported_values()",
             "% A table per component, a row per FMU parameter: name, value (%.17g), unit, type, and",
-            f"% origin ({source}, or '{DEFAULT_ORIGIN}': the exported FMU's start value, not given).",
+            f"% origin ({one_line(source)}, or '{DEFAULT_ORIGIN}': the exported FMU's start value, not given).",
             f"exported = cell(1, {len(blocks)});"]
     for k, block in enumerate(blocks, 1):
-        data += [f"c = struct('component', {_quoted(block.component)}, 'fmu', {_quoted(block.fmu)}, "
-                 f"'guid', {_quoted(block.guid)});", *_table(block), f"exported{{{k}}} = c;"]
+        data += [f"c = struct('component', {matlab_string(block.component)}, 'fmu', {matlab_string(block.fmu)}, "
+                 f"'guid', {matlab_string(block.guid)});", *_table(block), f"exported{{{k}}} = c;"]
     data += ["exported = table_to_components(exported);", "end"]
     about = (f"Written by pendfmu {__version__} export at {_now()}: the values of {source} for "
              f"{', '.join(b.fmu for b in blocks)}.")
-    return (template.replace("@ABOUT@", about).replace("@COMPONENTS@", ", ".join(b.component for b in blocks))
-            .replace("@DATA@", "\n".join(data)))
+    fills = {"@ABOUT@": one_line(about), "@COMPONENTS@": one_line(", ".join(b.component for b in blocks)),
+             "@DATA@": "\n".join(data)}
+    return re.sub("|".join(fills), lambda found: fills[found.group()], template)  # one pass: user text stays text
 
 
 def _identifier(name: str) -> bool:
@@ -181,10 +180,9 @@ def write_simulink_files(blocks: Sequence[BlockValues], out_dir: str | Path, sou
     out_dir = Path(out_dir)
     for block in blocks:
         block.texts()  # a value the block cannot take stops the export before a file is written
-    script = out_dir / MATLAB_FILE
-    script.write_text(matlab_script(blocks, source), encoding="utf-8")
-    mat = out_dir / MAT_FILE
-    savemat(mat, mat_contents(blocks, source), long_field_names=True, do_compression=False, oned_as="column")
+    script = write_atomically(out_dir / MATLAB_FILE, matlab_script(blocks, source))
+    mat = write_atomically(out_dir / MAT_FILE, writer=lambda out: savemat(
+        out, mat_contents(blocks, source), long_field_names=True, do_compression=False, oned_as="column"))
     return [script, mat]
 
 

@@ -4,7 +4,8 @@
 
 experiment (what a fit needs from one recording), residuals (the output error as a function
 of the free parameters), optimizer (seeded global search, local refinement), workers (what
-runs in worker processes), checkpoint (interrupted fits), uncertainty, bootstrap and
+runs in worker processes), pool and cluster (local and Dask workers that a fit survives),
+checkpoint (interrupted fits), uncertainty, bootstrap and
 stiction (the intervals and sets of the result), plausibility (warnings about the data),
 result (FitResult), identification (the stages of the paper and `fit`).
 

@@ -27,16 +27,16 @@ from __future__ import annotations
 
 import hashlib
 import math
-import multiprocessing
 import os
-import signal
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.stats import t as student_t
 
+from pendfmu.fitting.cluster import dask_map
 from pendfmu.fitting.experiment import Experiment
+from pendfmu.fitting.pool import WorkerPool
 from pendfmu.fitting.optimizer import local_search, snap_to_bounds
 from pendfmu.recording import quantize
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical
@@ -70,6 +70,8 @@ class Replicates:
     fitted: list[dict[str, float]]  # per replicate: the stage's rig parameters, for later stages
     source: dict[str, str]  # recording -> "sensor model" or "residuals"
     failures: int = 0
+    last_failure: str = ""  # why the last refit that failed failed
+    incidents: list[str] = field(default_factory=list)  # workers lost on the way, survived
 
 
 def error_source(experiment: Experiment, residual: np.ndarray) -> str:
@@ -107,11 +109,11 @@ def synthetic_experiment(experiment: Experiment, simulated: dict[str, np.ndarray
     return replace(experiment, recording=replace(recording, signals=signals), fixed=fixed)
 
 
-def refit(job: RefitJob) -> tuple[np.ndarray, int]:
+def refit(job: RefitJob) -> tuple[np.ndarray, int, str]:
     """The fit's own local refinement on one replicate, from the estimate: (physical
-    values, failed simulations). The same least squares with the same tolerances and
-    budget as the fit (one round of it: a refit starts at the optimum), so that the
-    replicates' spread is the estimator's; a looser refit
+    values, failed simulations, why the last failure failed: "" if none). The same least
+    squares with the same tolerances and budget as the fit (one round of it: a refit starts
+    at the optimum), so that the replicates' spread is the estimator's; a looser refit
     stopped early on the real carriage and its spread followed the stopping point.
     Runs in a worker process or on a Dask worker; never raises for a failed simulation
     (Residuals penalizes it), and a refit that fails altogether gives NaN."""
@@ -119,41 +121,44 @@ def refit(job: RefitJob) -> tuple[np.ndarray, int]:
     try:
         u, jacobian, residual, _ = local_search(residuals, job.u0, rounds=1)
         u, _, _ = snap_to_bounds(residuals, u, jacobian, residual)
-        return physical(job.free, u), residuals.failures
-    except Exception:  # a replicate must never stop the fit; it is counted as failed
-        return np.full(len(job.free), np.nan), residuals.failures + 1
+        return physical(job.free, u), residuals.failures, residuals.last_failure
+    except Exception as error:  # a replicate must never stop the fit; it is counted as failed
+        return failed_refit(job, f"{type(error).__name__}: {error}")
     finally:
         residuals.close()
 
 
+def failed_refit(job: RefitJob, reason: str) -> tuple[np.ndarray, int, str]:
+    """The result of a refit that failed altogether (or never came back from its worker)."""
+    return np.full(len(job.free), np.nan), 1, reason
+
+
 def parallel_map(function: Callable, jobs: Sequence, workers: int = 0, scheduler: str | None = None,
-                 done: Callable[[], None] = lambda: None) -> list:
+                 done: Callable[[], None] = lambda: None, failed: Callable[[object, str], object] | None = None,
+                 incidents: list[str] | None = None) -> list:
     """`function` over `jobs` in order: on a Dask cluster, in local processes, or here;
-    `done` is called as each job finishes (the progress bar's count)."""
+    `done` is called as each job finishes (the progress bar's count). A job whose worker
+    died on every try gives `failed(job, reason)` (pool.py, cluster.py); `incidents`
+    receives what happened to workers that the map survived."""
     if scheduler:
-        from distributed import Client, as_completed
+        from distributed import Client
 
         with Client(scheduler, set_as_default=False) as client:
-            futures = client.map(function, jobs, pure=False)
-            for _ in as_completed(futures):
-                done()
-            return client.gather(futures)
+            return dask_map(client, function, jobs, done, failed, incidents)
     workers = min(workers or os.cpu_count() or 1, len(jobs))
     if workers <= 1:
         return [_counted(function(job), done) for job in jobs]
-    context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
-    with context.Pool(workers, initializer=_ignore_interrupt) as pool:
-        return [_counted(result, done) for result in pool.imap(function, jobs, chunksize=1)]
+    with WorkerPool(workers, function, failed=failed) as pool:
+        results = [_counted(result, done) for result in pool.map(jobs)]
+    if pool.deaths and incidents is not None:
+        incidents.append(f"{len(pool.deaths)} worker process(es) died (last: {pool.deaths[-1]}); their jobs ran "
+                         f"again on fresh workers")
+    return results
 
 
 def _counted(result, done: Callable[[], None]):
     done()
     return result
-
-
-def _ignore_interrupt() -> None:
-    """Ctrl-C is the main process's to handle (it falls back to the Jacobian interval)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def data_seed(residuals: Residuals) -> int:
@@ -191,14 +196,17 @@ def bootstrap(residuals: Residuals, u: np.ndarray, replicates: int = REPLICATES,
                             for k, e in enumerate(residuals.experiments))
         jobs.append(RefitJob(experiments, tuple(residuals.free), {**residuals.shared, **above}, np.array(u),
                              residuals.cost))
-    results = parallel_map(refit, jobs, workers, scheduler, done)
+    incidents: list[str] = []
+    results = parallel_map(refit, jobs, workers, scheduler, done, failed_refit, incidents)
     values = np.array([r[0] for r in results]).reshape(replicates, len(residuals.free))
     estimate = physical(residuals.free, u)
     # a failed refit hands the estimate to later stages: they must have a value to run with
     fitted = [{p.name: float(v) for p, v in zip(residuals.free, estimate if np.isnan(row).any() else row)
                if p.experiment is None} for row in values]
-    failed = int(np.isnan(values).any(axis=1).sum())
-    return Replicates([p.label for p in residuals.free], values, fitted, sources, failed)
+    failed = np.isnan(values).any(axis=1)
+    reasons = [r[2] for r, bad in zip(results, failed) if bad and r[2]]
+    return Replicates([p.label for p in residuals.free], values, fitted, sources, int(failed.sum()),
+                      reasons[-1] if reasons else "", incidents)
 
 
 def _scaled_residuals(residuals: Residuals, u: np.ndarray, simulated) -> list[dict[str, np.ndarray]]:

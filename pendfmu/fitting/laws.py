@@ -123,6 +123,11 @@ def run_job(job: Job) -> PartFit:
     return found
 
 
+def failed_job(job: Job, reason: str) -> PartFit:
+    """The fit of a job whose worker died on every try."""
+    return PartFit(failed=reason)
+
+
 def start_own(problem: Problem, own: Mapping[str, float]) -> None:
     """Start each recording's own estimates (its initial states) at `own`'s values where
     they lie in their search boxes. Why: a fit from a lower law's optimum must start at
@@ -196,7 +201,7 @@ class _Ladder:
             return
         search = self.spec.global_search
         self.say(f"{len(jobs)} fits: {what}")
-        for job, found in zip(jobs, parallel_map(run_job, jobs, search.workers, search.scheduler)):
+        for job, found in zip(jobs, parallel_map(run_job, jobs, search.workers, search.scheduler, failed=failed_job)):
             self.fits[job.law, job.part] = found
 
     def fitted(self, k: int, part: str) -> PartFit | None:

@@ -17,7 +17,6 @@ residual and is counted; it never stops the fit.
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import time
 from collections.abc import Callable
@@ -29,8 +28,9 @@ from scipy.optimize import differential_evolution, least_squares
 
 from pendfmu.errors import PendfmuError, UsageError
 from pendfmu.fitting.residuals import Residuals
-from pendfmu.fitting.workers import (CandidateEvaluator, cost_and_failures, dask_costs, pause_profiler, resume_profiler,
-                             worker_cost, worker_start)
+from pendfmu.fitting.cluster import ActorGroup
+from pendfmu.fitting.pool import WorkerPool
+from pendfmu.fitting.workers import cost_and_failures, penalized, worker_cost, worker_start
 
 @dataclass
 class GlobalOptions:
@@ -64,7 +64,8 @@ WORKER_WAIT = 60.0  # seconds a fit waits for a Dask scheduler's first worker
 class _Evaluator:
     """Evaluates differential evolution's candidates, in worker processes or here, and
     remembers every cost by the candidate's exact coordinates: the memory a checkpoint
-    keeps, so that a resumed fit looks up what it had already simulated."""
+    keeps, so that a resumed fit looks up what it had already simulated. A worker that dies
+    or stops answering is survived (pool.py, cluster.py); `lost` says what happened."""
 
     def __init__(self, residuals: Residuals, workers: int, cache: dict[bytes, float], scheduler: str | None = None):
         self.residuals = residuals
@@ -72,27 +73,27 @@ class _Evaluator:
         self.failures = 0
         self.pool = None
         self.client = None
-        self.lost = None  # why a Dask actor's chunk ran as a task instead
+        self.actors = None
         if scheduler:
+            self.client = _client(scheduler)
             try:
-                from distributed import Client
-            except ImportError:
-                raise UsageError("a Dask scheduler needs Dask: pip install 'pendfmu[distributed]'") from None
-            self.client = Client(scheduler, set_as_default=False, direct_to_workers=True)
-            try:  # a cluster started with the fit may still be bringing its workers up
-                self.client.wait_for_workers(1, timeout=WORKER_WAIT)
-            except TimeoutError:
+                self.actors = ActorGroup(self.client, residuals)
+            except BaseException:
                 self.client.close()
-                raise UsageError(f"the Dask scheduler at {scheduler} has no workers "
-                                 f"(waited {WORKER_WAIT:g} s)") from None
-            self.paused = self.client.run(pause_profiler)  # worker address -> callbacks stopped
-            with self.client.as_current():  # the actors' proxies bind to this client, not a default one
-                self.actors = [self.client.submit(CandidateEvaluator, residuals, actor=True, workers=[worker],
-                                                  allow_other_workers=False, pure=False).result()
-                               for worker in sorted(self.client.scheduler_info()["workers"])]
+                raise
         elif workers > 1:
-            context = multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
-            self.pool = context.Pool(workers, initializer=worker_start, initargs=(residuals,))
+            self.pool = WorkerPool(workers, worker_cost, worker_start, (residuals,),
+                                   failed=lambda u, reason: penalized(residuals, reason))
+
+    @property
+    def lost(self) -> str | None:
+        """What the user should know of workers lost during the search (None: none was)."""
+        if self.actors is not None and self.actors.incidents:
+            return f"{'; '.join(self.actors.incidents)}: its work ran again on the workers left"
+        if self.pool is not None and self.pool.deaths:
+            return (f"{len(self.pool.deaths)} worker process(es) died during the global search (last: "
+                    f"{self.pool.deaths[-1]}): their candidates ran again on fresh workers")
+        return None
 
     def __call__(self, function: Callable, candidates) -> list[float]:
         candidates = [np.asarray(c, dtype=float) for c in candidates]
@@ -107,51 +108,35 @@ class _Evaluator:
         return [self.cache[key] for key in keys]
 
     def _costs(self, candidates):
-        if self.client is not None:
-            # One chunk per worker's actor: a generation's candidates cost about the same,
-            # and every call costs a round trip the workers could use.
-            chunks = [[candidates[k] for k in c] for c in np.array_split(np.arange(len(candidates)), len(self.actors))
-                      if len(c)]
-            calls = [(chunk, self._actor_call(actor, chunk)) for chunk, actor in zip(chunks, self.actors)]
-            for chunk, call in calls:
-                yield from self._actor_result(chunk, call)
-            return
+        if self.actors is not None:
+            return self.actors.costs(candidates)
         if self.pool is not None:
-            yield from self.pool.imap(worker_cost, candidates)
-            return
-        for u in candidates:
-            yield cost_and_failures(self.residuals, u)
-
-    @staticmethod
-    def _actor_call(actor, chunk):
-        """The actor's pending call, or the error its worker's loss raised at once."""
-        try:
-            return actor.costs(chunk)
-        except Exception as lost:
-            return lost
-
-    def _actor_result(self, chunk, call) -> list[tuple[float, int, str]]:
-        """An actor's costs; if its worker has gone (an actor does not move), the chunk runs
-        as an ordinary task on any worker the cluster still has, and nothing is lost."""
-        try:
-            if isinstance(call, Exception):
-                raise call
-            return call.result()
-        except Exception as lost:  # the worker's connection, not the simulations (they do not raise)
-            if self.lost is None:
-                self.lost = f"a Dask worker was lost ({type(lost).__name__}); its candidates ran as tasks"
-            return self.client.submit(dask_costs, chunk, self.residuals, pure=False).result()
+            return self.pool.map(candidates)
+        return (cost_and_failures(self.residuals, u) for u in candidates)
 
     def close(self) -> None:
         if self.pool is not None:
-            self.pool.terminate()
-            self.pool.join()
+            self.pool.close()
         if self.client is not None:
-            alive = set(self.client.scheduler_info()["workers"])  # a lost worker has nothing to restore
-            for worker, names in self.paused.items():
-                if names and worker in alive:
-                    self.client.run(resume_profiler, names, workers=[worker], on_error="ignore")
-            self.client.close()
+            try:
+                self.actors.close()
+            finally:
+                self.client.close()
+
+
+def _client(scheduler: str):
+    """A client of the Dask scheduler at `scheduler`, once it has a worker."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise UsageError("a Dask scheduler needs Dask: pip install 'pendfmu[distributed]'") from None
+    client = Client(scheduler, set_as_default=False, direct_to_workers=True)
+    try:  # a cluster started with the fit may still be bringing its workers up
+        client.wait_for_workers(1, timeout=WORKER_WAIT)
+    except TimeoutError:
+        client.close()
+        raise UsageError(f"the Dask scheduler at {scheduler} has no workers (waited {WORKER_WAIT:g} s)") from None
+    return client
 
 
 def global_search(coarse: Residuals, n: int, seed: int, options: GlobalOptions,

@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendfmu.atomic import write_atomically
 from pendfmu.fitting.result import ExperimentFit
 from pendfmu.fitting.statistics import correlation_length
 
@@ -313,9 +314,7 @@ class LawComparison:
         }
 
     def write_json(self, path: str | Path) -> Path:
-        path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
-        return path
+        return write_atomically(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n")
 
 
 def _finite(value: float | None) -> float | None:

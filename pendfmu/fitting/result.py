@@ -15,9 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from pendfmu.atomic import write_atomically
 from pendfmu.fitting.diagnostics import Diagnostics, of_signals
 from pendfmu.fitting.envelope import envelope_indices
 from pendfmu.fitting.labels import is_own, label
+from pendfmu.jsontext import parse_json
 
 
 FLAG_KINDS = ("at-bound", "unbounded", "wide-interval", "correlated", "not-determined", "bounded-only", "no-interval",
@@ -158,9 +160,7 @@ class FitResult:
         }
 
     def write_json(self, path: str | Path) -> Path:
-        path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False, default=_plain) + "\n")
-        return path
+        return write_atomically(path, json.dumps(self.to_dict(), indent=2, allow_nan=False, default=_plain) + "\n")
 
 
 def experiment_dict(fit: ExperimentFit) -> dict:
@@ -226,7 +226,7 @@ def read_result(path: str | Path) -> FitResult:
 
     path = Path(path)
     try:
-        document = json.loads(path.read_text(encoding="utf-8"))
+        document = parse_json(path.read_text(encoding="utf-8"))
     except OSError as error:
         raise BadInput(f"{path}: cannot read the result file ({error.strerror})") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as error:

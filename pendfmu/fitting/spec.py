@@ -232,8 +232,13 @@ def _check_no_search(spec: FitSpec) -> None:
 
 
 def _check_sequence(spec: FitSpec) -> None:
+    from pendfmu.virtual_rig import read_truth
+
     if len(spec.recordings) != 1 or not isinstance(spec.recordings[0], (str, Path)):
         raise OptionError("recordings", "fit all takes one folder of recordings")
+    if not Path(spec.recordings[0]).is_dir():
+        raise OptionError("recordings", f"fit all takes one folder of recordings; {spec.recordings[0]} is not a folder")
+    read_truth(spec.recordings[0])  # a virtual rig's truth, shown against the result: checked before the fit
     for option in ("windows", "segment"):
         if getattr(spec, option):
             raise OptionError(option, "fit all fits each stage's recordings whole; fit the stage alone to fit "

@@ -128,16 +128,20 @@ def _bootstrap(residuals: Residuals, outcome, count: int, upstream, options, pro
     good = count - found.failures
     summary = {"method": "bootstrap", "replicates": count, "failed": found.failures, "errors_from": found.source,
                "upstream": above is not None}
+    why = f" (last: {found.last_failure or 'no reason reported'})" if found.failures else ""
+    lost = [f"bootstrap: {incident}" for incident in found.incidents]
     if good < MIN_REPLICATES:
         fallback = _jacobian(residuals, outcome)
-        fallback.notes.append(f"only {good} of {count} bootstrap refits succeeded: the intervals are the fast "
+        fallback.notes.append(f"only {good} of {count} bootstrap refits succeeded{why}: the intervals are the fast "
                               f"Jacobian ones, too narrow on quantized recordings")
+        fallback.notes += lost
         fallback.summary.update(summary, method="jacobian (bootstrap failed)")
         return fallback
     estimates, correlation = bootstrap_estimates(residuals.free, outcome.u, found)
     notes = undetermined(residuals.free, outcome.u, outcome.jacobian, estimates)
     if found.failures:
-        notes.append(f"{found.failures} of {count} bootstrap refits failed and were left out")
+        notes.append(f"{found.failures} of {count} bootstrap refits failed and were left out{why}")
+    notes += lost
     modelled = [name for name, source in found.source.items() if source == "residuals"]
     if modelled:
         notes.append(f"the residuals of {', '.join(modelled)} stand above the sensor noise: their bootstrap errors "

@@ -13,7 +13,7 @@ import threading
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from pendfmu.fitting.residuals import Residuals
+from pendfmu.fitting.residuals import PENALTY, Residuals
 
 _WORKER_RESIDUALS: Residuals | None = None
 
@@ -35,6 +35,13 @@ def cost_and_failures(residuals: Residuals, u: np.ndarray) -> tuple[float, int, 
     cost = residuals.sum_of_squares(u)
     failed = residuals.failures - before
     return cost, failed, residuals.last_failure if failed else ""
+
+
+def penalized(residuals: Residuals, reason: str) -> tuple[float, int, str]:
+    """cost_and_failures of a candidate that never came back (its worker died on every try):
+    the cost of a failed simulation, and why."""
+    residual = np.full(residuals.size, PENALTY)
+    return float(residual @ residual), 1, f"the simulation did not come back: {reason}"
 
 
 def worker_cost(u: np.ndarray) -> tuple[float, int, str]:
@@ -61,18 +68,26 @@ class CandidateEvaluator:
     instead of 13-18 ms for a task, which two workers otherwise lost at every generation."""
 
     def __init__(self, residuals: Residuals):
+        from distributed import get_worker
+
         self.residuals = residuals
+        self.paused = pause_profiler(get_worker())  # here, not by Client.run: a frozen worker would hang that
 
     def costs(self, candidates: list[np.ndarray]) -> list[tuple[float, int, str]]:
         return dask_costs(candidates, self.residuals)
+
+    def resume(self) -> None:
+        """The search is over: the worker's profiler runs again."""
+        from distributed import get_worker
+
+        resume_profiler(self.paused, get_worker())
 
 
 PROFILER_CALLBACKS = ("profile", "profile-cycle")
 
 
 def pause_profiler(dask_worker) -> list[str]:
-    """Stop a Dask worker's statistical profiler for the duration of a fit (run through
-    Client.run). It samples the running task's stack every 10 ms on the worker's event
+    """Stop a Dask worker's statistical profiler for the duration of a fit (by its actor). It samples the running task's stack every 10 ms on the worker's event
     loop, which took 10-40 % of a busy worker's core from the simulations (2 workers: 1.50x
     one instead of 1.75x). Returns the callbacks it stopped, for resume_profiler."""
     stopped = []

@@ -37,6 +37,7 @@ import fmpy
 import platformdirs
 
 from pendfmu import __version__
+from pendfmu.atomic import write_atomically
 from pendfmu.components import Component
 from pendfmu.errors import BuildError
 from pendfmu.fmubuild import ctables, description, description3
@@ -271,13 +272,15 @@ def build_fmu(component: Component, force: bool = False, fmi_version: int = 2, f
             for done in [pool.submit(compile_sources, sources, library, platform=name)
                          for name, library in libraries.items()]:
                 done.result()  # a BuildError is raised here
-        partial = target.with_name(f".{target.name}.{os.getpid()}.part")
-        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as fmu:
-            fmu.writestr("modelDescription.xml", version.model_description(component, guid, names))
-            for name, library in libraries.items():
-                fmu.write(library, f"binaries/{version.binaries[name]}/{library.name}")
-            for name in names:
-                fmu.write(sources / name, f"sources/{name}")
-            fmu.writestr("sources/buildDescription.xml", description.build_description(component, names))
-        shutil.move(partial, target)  # atomic: a reader never sees half an FMU
+
+        def write(out) -> None:
+            with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as fmu:
+                fmu.writestr("modelDescription.xml", version.model_description(component, guid, names))
+                for name, library in libraries.items():
+                    fmu.write(library, f"binaries/{version.binaries[name]}/{library.name}")
+                for name in names:
+                    fmu.write(sources / name, f"sources/{name}")
+                fmu.writestr("sources/buildDescription.xml", description.build_description(component, names))
+
+        write_atomically(target, writer=write)  # a reader never sees half an FMU
     return target

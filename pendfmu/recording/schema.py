@@ -121,11 +121,19 @@ def _initial_problem(name: str, value: float) -> str | None:
     return None
 
 
+# The largest sensor noise or resolution a sidecar may state: the error model squares them
+# (a signal's scale is sqrt(noise^2 + resolution^2/12)), and the square of more overflows a
+# double. No sensor's step is anywhere near it; a larger value is a typo or a corrupted file.
+LARGEST_ERROR = 1e150
+
+
 def _noise_problem(noise: float | None) -> str | None:
     if noise is None:
         return None
     if not math.isfinite(noise) or noise < 0:
         return f"noise {noise!r} must be a finite standard deviation >= 0"
+    if noise > LARGEST_ERROR:
+        return f"noise {noise!r} is beyond any sensor's (at most {LARGEST_ERROR:g})"
     return None
 
 
@@ -144,6 +152,8 @@ def _resolution_problem(resolution) -> str | None:
         return f"resolution must be a number, got {resolution!r}"
     if not (math.isfinite(resolution) and resolution > 0):
         return f"resolution must be a positive finite number, got {resolution!r}"
+    if resolution > LARGEST_ERROR:
+        return f"resolution {resolution!r} is beyond any sensor's step (at most {LARGEST_ERROR:g})"
     return None
 
 

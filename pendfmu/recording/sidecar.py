@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pendfmu.jsontext import parse_json
 from pendfmu.recording.schema import RIG, RecordingError, SIDECAR_KEYS, SIGNAL_INFO_KEYS, Vocabulary, _missing_problem, _noise_problem, _quantizer_problem, _resolution_problem
 from pendfmu.recording.model import Recording, SignalInfo
 from pendfmu.suggest import did_you_mean
@@ -43,7 +44,7 @@ def _read_sidecar(path: Path, vocabulary: Vocabulary = RIG) -> _Sidecar:
     except UnicodeDecodeError as exc:
         raise RecordingError(f"{src}: not UTF-8 text (byte {exc.start})") from None
     try:
-        doc = json.loads(text, object_pairs_hook=_no_duplicate_keys)
+        doc = parse_json(text, object_pairs_hook=_no_duplicate_keys)
     except json.JSONDecodeError as exc:
         comment = exc.pos < len(text) and text[exc.pos] == "/"
         hint = "; JSON has no comments, put notes under \"comment\"" if comment else ""

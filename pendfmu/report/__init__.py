@@ -67,26 +67,37 @@ def _replace(directory: Path, text: str, figures: dict[str, Path]) -> Path:
     """Put a rendered report (page text, figure name -> drawn file) into `directory`: the
     earlier report's files go (manifest.py), the user's stay. A file of the new report's
     name that pendfmu did not write (someone's own index.html) stops it: BadInput, nothing
-    changed."""
-    import shutil
-
+    changed. The page and its figures are written together or not at all (atomic.py), and
+    two reports into one folder take turns (manifest.folder_lock): the last one is the
+    folder's."""
+    from pendfmu.atomic import write_together
     from pendfmu.errors import UsageError
-    from pendfmu.report.manifest import earlier_report_files, is_pendfmu_page, remove_previous, write_manifest
+    from pendfmu.report.manifest import folder_lock, remove_previous, write_manifest
 
     if directory.exists() and not directory.is_dir():
         raise UsageError(f"{directory}: is a file, not a report folder")
-    ours = set(earlier_report_files(directory)) if directory.is_dir() else set()
+    directory.mkdir(parents=True, exist_ok=True)
+    index = directory / "index.html"
+    with folder_lock(directory):
+        earlier = _earlier_report(directory, ["index.html", *figures])
+        files = write_together({**{directory / name: drawn.read_bytes() for name, drawn in figures.items()},
+                                index: text})  # all or none: a full disk leaves the earlier report whole
+        remove_previous(earlier, keep=files)
+        write_manifest(directory, files)
+    return index
+
+
+def _earlier_report(directory: Path, names: list[str]) -> set[Path]:
+    """The files of the report written earlier into `directory` (manifest.py); stop
+    (UsageError) where a file the new report would write is there and is not pendfmu's."""
+    from pendfmu.errors import UsageError
+    from pendfmu.report.manifest import earlier_report_files, is_pendfmu_page
+
+    ours = set(earlier_report_files(directory))
     if is_pendfmu_page(directory / "index.html"):
         ours.add(directory / "index.html")
-    for name in ["index.html", *figures]:
+    for name in names:
         if (directory / name).exists() and directory / name not in ours:
             raise UsageError(f"{directory / name}: exists and was not written by a pendfmu report; give another "
                              f"folder or remove it")
-    directory.mkdir(parents=True, exist_ok=True)
-    remove_previous(directory)
-    for name, drawn in figures.items():
-        shutil.copyfile(drawn, directory / name)
-    index = directory / "index.html"
-    index.write_text(text, encoding="utf-8")
-    write_manifest(directory, [*(directory / name for name in figures), index])
-    return index
+    return ours

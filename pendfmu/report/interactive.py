@@ -14,10 +14,10 @@ area, never over the data.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from html import escape
 
 import numpy as np
 
+from pendfmu.escaping import html_text
 from pendfmu.fitting.result import ExperimentFit
 from pendfmu.report.content import signal_errors, unit
 from pendfmu.fitting.envelope import BUCKETS, envelope_indices
@@ -55,14 +55,15 @@ def recording_plot(fit: ExperimentFit, element_id: str, others: Sequence[tuple[s
     figure = make_subplots(rows=rows, cols=1, shared_xaxes=True, vertical_spacing=0.12 / rows,
                            row_heights=heights)
     errors = {e.signal: e for e in signal_errors(fit)}
-    # plotly reads a few tags in names (<b>, <br>): a user's file name is shown as typed
-    simulations = [(escape(label), fit, SIMULATED)] + [(escape(name), other, colour) for (name, other), colour
-                                                       in zip(others, (OTHER, "#2ca02c", "#9467bd"))]
+    # plotly reads a few tags in names and titles (<b>, <br>, <a>): a user's file or signal name is shown as typed
+    simulations = [(html_text(label), fit, SIMULATED)] + [(html_text(name), other, colour) for (name, other), colour
+                                                          in zip(others, (OTHER, "#2ca02c", "#9467bd"))]
     for k, name in enumerate(names):
+        shown = html_text(name)
         step = fit.resolution.get(name)
         time, recorded = np.asarray(fit.time, float), np.asarray(fit.recorded[name], float)
         keep = envelope_indices([recorded, np.asarray(fit.simulated[name], float)])
-        figure.add_trace(go.Scatter(x=time[keep], y=recorded[keep], name=f"recorded {name}",
+        figure.add_trace(go.Scatter(x=time[keep], y=recorded[keep], name=f"recorded {shown}",
                                     line=dict(color=RECORDED, width=3, shape="hv" if step else "linear"),
                                     opacity=0.6, legendgroup=name), row=2 * k + 1, col=1)
         for what, simulation, colour in simulations:
@@ -74,14 +75,14 @@ def recording_plot(fit: ExperimentFit, element_id: str, others: Sequence[tuple[s
             simulated = np.asarray(simulation.simulated[name], float)
             residual = (recorded - simulated) / step if step else recorded - simulated
             keep = envelope_indices([recorded, simulated, residual])
-            figure.add_trace(go.Scatter(x=time[keep], y=simulated[keep], name=f"{what} {name}",
+            figure.add_trace(go.Scatter(x=time[keep], y=simulated[keep], name=f"{what} {shown}",
                                         line=dict(color=colour, width=1.2), legendgroup=name), row=2 * k + 1, col=1)
-            figure.add_trace(go.Scatter(x=time[keep], y=residual[keep], name=f"residual {name} ({what})",
+            figure.add_trace(go.Scatter(x=time[keep], y=residual[keep], name=f"residual {shown} ({what})",
                                         line=dict(color=colour, width=0.8), legendgroup=name,
                                         showlegend=False), row=2 * k + 2, col=1)
         if step:
             figure.add_hrect(y0=-0.5, y1=0.5, fillcolor=BAND, line_width=0, row=2 * k + 2, col=1)
-        figure.update_yaxes(title_text=_label(name, unit(name)), row=2 * k + 1, col=1)
+        figure.update_yaxes(title_text=_label(shown, unit(name)), row=2 * k + 1, col=1)
         figure.update_yaxes(title_text="residual [steps]" if step else _label("residual", unit(name)),
                             row=2 * k + 2, col=1)
         error = errors.get(name)

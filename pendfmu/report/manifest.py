@@ -10,10 +10,15 @@ files directly in the folder, nothing else) before writing its own.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
+
+from pendfmu.atomic import write_atomically
+from pendfmu.jsontext import parse_json
 
 MANIFEST = ".pendfmu-report.json"
 KIND = "pendfmu report"
@@ -23,7 +28,7 @@ def previous_files(directory: Path) -> list[Path]:
     """The files an earlier report listed in `directory`'s manifest and that are still
     there; an unreadable or foreign manifest lists none (nothing is removed on a guess)."""
     try:
-        document = json.loads((directory / MANIFEST).read_text(encoding="utf-8"))
+        document = parse_json((directory / MANIFEST).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return []
     if not isinstance(document, dict) or document.get("kind") != KIND or not isinstance(document.get("files"), list):
@@ -70,18 +75,38 @@ def is_pendfmu_page(path: Path) -> bool:
     return re.search(r"<title>pendfmu (fit report|comparison)", head) is not None
 
 
-def remove_previous(directory: Path) -> list[Path]:
-    """Remove the files of the report written earlier into `directory`; returns them."""
-    removed = earlier_report_files(directory)
+def remove_previous(earlier: Iterable[Path], keep: Iterable[Path] = ()) -> list[Path]:
+    """Remove the files of the report written earlier (`earlier`, as earlier_report_files
+    found them before the new report was written) but those in `keep` (the new report's,
+    already in place); returns the removed. The manifest is then written anew."""
+    kept = {Path(path) for path in keep}
+    removed = sorted(Path(path) for path in earlier if Path(path) not in kept)
     for path in removed:
-        path.unlink()
-    (directory / MANIFEST).unlink(missing_ok=True)
+        path.unlink(missing_ok=True)
     return removed
 
 
 def write_manifest(directory: Path, files: Iterable[Path]) -> Path:
     """List the files this report wrote (names relative to `directory`)."""
     names = sorted({Path(f).name for f in files})
-    path = directory / MANIFEST
-    path.write_text(json.dumps({"kind": KIND, "files": names}, indent=1) + "\n", encoding="utf-8")
-    return path
+    return write_atomically(directory / MANIFEST, json.dumps({"kind": KIND, "files": names}, indent=1) + "\n")
+
+
+@contextlib.contextmanager
+def folder_lock(directory: Path) -> Iterator[None]:
+    """Hold `directory` for one report at a time: an exclusive lock on the folder itself
+    (flock, released when the process ends, however it ends; no lock file to leave behind).
+    Why: a second report reading the folder while the first replaces its files took the
+    first one's new files for a stranger's ("was not written by a pendfmu report") or
+    removed them under it. Where flock does not exist (Windows) reports do not take turns."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        yield
+        return
+    handle = os.open(directory, os.O_RDONLY)
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(handle)

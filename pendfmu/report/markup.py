@@ -6,10 +6,10 @@ assessment.py build their pages of them).
 
 from __future__ import annotations
 
-import html
 import math
 from collections.abc import Iterable, Sequence
 
+from pendfmu.escaping import html_text
 from pendfmu.report.content import finite, interval_text
 from pendfmu.report.figures import Picture
 
@@ -17,8 +17,8 @@ DASH = "—"  # what a missing or undefined number shows
 
 
 def _text(value) -> str:
-    """Any value as escaped HTML text."""
-    return html.escape(str(value), quote=True)
+    """Any value as escaped HTML text (escaping.py's, the one HTML escape of pendfmu)."""
+    return html_text(value)
 
 
 def number(value, digits: int = 6) -> str:

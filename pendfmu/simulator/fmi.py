@@ -16,18 +16,19 @@ to load), and give the native loop (native.py) the C functions' addresses.
     fmu.close()
 
 `unpacked_fmu` unpacks an FMU once per file and GUID; the classes are picked by the model
-description's FMI version and the interface (CLASSES).
+description's FMI version and the interface (CLASSES). Neither loads a library from an FMU
+whose model description names a file the standard does not allow (`refuse_unsafe_names`): the
+loader builds binaries/<platform>/<modelIdentifier>.<suffix>, and a modelIdentifier such as
+"../../x/evil" would load any library on the machine.
 """
 
 from __future__ import annotations
 
-import atexit
 import ctypes
 import itertools
-import shutil
-import tempfile
+import re
 import weakref
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from fmpy import calloc, extract, free
 from fmpy.fmi1 import printLogMessage
@@ -37,6 +38,7 @@ from fmpy.fmi3 import FMU3Model, FMU3Slave
 from fmpy.logging import addLoggerProxy
 
 from pendfmu.errors import BadInput, FMUError
+from pendfmu.tempfolders import temporary_folder
 
 WARNING = 1
 """fmi2Status and fmi3Status: a call that returns more than Warning failed."""
@@ -50,6 +52,55 @@ STEP_SIZE = {"fmi2DoStep": 2, "fmi3DoStep": 2}
 """Where a step's size is: after a step the instance is that much further."""
 
 _UNPACKED: dict[str, tuple[Path, object]] = {}
+C_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+class UnsafeFMU(BadInput):
+    """A model description that names a file the FMI standard does not allow (a modelIdentifier
+    that is not a C identifier, a source file outside the sources folder): nothing of the FMU
+    is loaded. `description` is the model description refused."""
+
+    def __init__(self, message: str, description=None):
+        super().__init__(message)
+        self.description = description
+
+
+def unsafe_names(description) -> list[str]:
+    """What in a model description names a file outside what FMI allows, each in words: every
+    interface's and build configuration's modelIdentifier must be a C identifier (FMI 2.0 and
+    3.0: a name in C syntax that names the binary and prefixes its functions), and every source
+    file and include folder must stay inside the sources folder."""
+    named = [(f"<{element} modelIdentifier>", getattr(interface, "modelIdentifier", None))
+             for element, interface in (("CoSimulation", description.coSimulation),
+                                        ("ModelExchange", description.modelExchange),
+                                        ("ScheduledExecution", getattr(description, "scheduledExecution", None)))
+             if interface is not None]
+    files = []
+    for build in getattr(description, "buildConfigurations", None) or []:
+        named.append(("<BuildConfiguration modelIdentifier>", build.modelIdentifier))
+        for fileset in build.sourceFileSets:
+            files += [("<SourceFiles><File name>", name) for name in fileset.sourceFiles]
+            files += [("<IncludeDirectory name>", name) for name in fileset.includeDirectories]
+    problems = [f"{where} {value!r} is not a C identifier (FMI: letters, digits and '_', not starting with a digit)"
+                for where, value in named if not isinstance(value, str) or not C_IDENTIFIER.fullmatch(value)]
+    problems += [f"{where} {value!r} leaves the FMU's sources folder" for where, value in files
+                 if not _inside(value)]
+    return problems
+
+
+def _inside(name) -> bool:
+    """A relative POSIX path that stays where it is put: no '..', no root, drive or backslash."""
+    if not isinstance(name, str) or not name or any(c in name for c in "\\:\0"):
+        return False
+    path = PurePosixPath(name)
+    return not path.is_absolute() and ".." not in path.parts
+
+
+def refuse_unsafe_names(fmu, description) -> None:
+    """UnsafeFMU (bad input, exit 2) naming the FMU and the attribute, before anything is loaded."""
+    problems = unsafe_names(description)
+    if problems:
+        raise UnsafeFMU(f"{fmu}: {problems[0]}; pendfmu loads no library from it", description)
 
 
 def unpacked_fmu(name: str, fmu: str | Path | None = None, copy: int = 0) -> tuple[Path, object]:
@@ -64,11 +115,11 @@ def unpacked_fmu(name: str, fmu: str | Path | None = None, copy: int = 0) -> tup
 
     path = Path(fmu) if fmu is not None else ensure_fmu(name)
     md = model_description(path)
+    refuse_unsafe_names(path, md)  # on every call: the file may have changed under the same GUID
     key = f"{path.resolve()}:{md.guid}:{copy}"
     if key not in _UNPACKED:
-        directory = Path(tempfile.mkdtemp(prefix=f"pendfmu-{name}-"))
+        directory = temporary_folder(f"pendfmu-{name}-")
         extract(str(path), str(directory))
-        atexit.register(shutil.rmtree, directory, True)
         _UNPACKED[key] = (directory, md)
     return _UNPACKED[key]
 
@@ -236,6 +287,7 @@ def instantiate_fmu(directory: str | Path, description, interface: str = "CS", n
     instantiate it as `interface` ("CS" or "ME"), named `name` (default: its model
     identifier). `guid` another than the description's (to see it refused); `logging`
     turns the FMU's debug logging on."""
+    refuse_unsafe_names(directory, description)
     declared = description.coSimulation if interface == "CS" else description.modelExchange
     major = str(description.fmiVersion).split(".")[0]
     if (major, interface) not in CLASSES or declared is None:

@@ -34,6 +34,23 @@ from pendfmu.simulator.coupled import CoupledSteps, CouplingError
 from pendfmu.simulator.fmi import unpacked_fmu
 from pendfmu.simulator.graph import Wire, algebraic_loops, stepping_order, tear_of
 
+# The most communication points one run may plan. Each point costs about 50 bytes across the
+# grid and the arrays drawn on it (flags, step sizes, each drive's values and slopes, the
+# outputs), so this is ~2.5 GB: hours of a recording at the default step of 0.2 ms. More
+# is a time column in ms or us, or a step far too small for the span.
+MAX_POINTS = 50_000_000
+
+
+def check_plan(times: np.ndarray, step: float, where: str = "the sample times") -> None:
+    """Refuse (UsageError naming `where`) sample times whose intervals, cut into steps no
+    longer than `step`, make more than MAX_POINTS communication points, before anything is
+    allocated: a two-row recording spanning 1e7 s asked for 373 GiB."""
+    planned = 1.0 + float(np.sum(np.maximum(1.0, np.ceil(np.diff(times) / step - 1e-9))))
+    if planned > MAX_POINTS:
+        raise UsageError(f"{where}: {float(times[0]):g} s to {float(times[-1]):g} s in communication steps of "
+                         f"{step:g} s make {planned:.3g} points, more than a run may hold ({MAX_POINTS:.0e}); is "
+                         f"the time in seconds (not ms)? else choose a longer step")
+
 
 @dataclass
 class ExternalInput:
@@ -168,6 +185,7 @@ class Master(CoupledSteps):
         if engine not in ("native", "python"):
             raise UsageError(f"engine must be 'native' or 'python', not {engine!r}")
         times = np.asarray(times, dtype=float)
+        check_plan(times, self.step)
         external = dict(external or {})
         for key in external:
             self._split(key)

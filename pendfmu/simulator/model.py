@@ -139,6 +139,8 @@ class Model:
             raise ModelError(f"{path}: no such FMU file")
         try:
             md = unpacked_fmu(path.stem, path)[1]
+        except BadInput:  # a file name FMI does not allow (simulator.fmi.UnsafeFMU): says it all
+            raise
         except Exception as error:  # not a zip, no modelDescription.xml, not FMI 2.0 ...
             raise ModelError(f"{path}: cannot read this FMU ({type(error).__name__}: {error})") from None
         if md.fmiVersion != "2.0":

@@ -15,7 +15,7 @@ from pendfmu.fmubuild import build_all
 from pendfmu.fmubuild.compiler import FMUS_DIR
 from pendfmu.parameters import recording_values
 from pendfmu.recording import Recording, RecordingError
-from pendfmu.simulator.master import ExternalInput, Master
+from pendfmu.simulator.master import ExternalInput, Master, check_plan
 from pendfmu.ssp import rig_system
 from pendfmu.ssp.rig import RIG_OUTPUTS
 
@@ -38,6 +38,7 @@ def simulate_recording(parameters: Mapping[str, float], recording: Recording, st
     if "I_c" not in recording.signals:
         raise RecordingError(f"{recording.path}: no column 'I_c' (the command current that drives the rig); "
                              f"columns: {', '.join(('time', *recording.signals))}")
+    check_plan(recording.time, step, str(recording.path))
     values = experiment_parameters(parameters, recording)
     build_all()
     system = rig_system(values.get("eta", CART.variable("eta").start), FMUS_DIR, values, step_size=step)

@@ -127,7 +127,7 @@ def schema(name: str) -> etree.XMLSchema:
     return etree.XMLSchema(etree.parse(str(schema_dir() / name)))
 
 
-def _parser() -> etree.XMLParser:
+def safe_parser() -> etree.XMLParser:
     """A parser that never fetches anything or expands entities: SSP files come from others."""
     return etree.XMLParser(resolve_entities=False, no_network=True)
 
@@ -146,7 +146,7 @@ def _validate(tree: etree._ElementTree, schema_name: str, file: str | Path, note
 def read_validated(path: Path, schema_name: str) -> etree._ElementTree:
     """Parse `path` and check it against the schema, or raise SspError saying where it fails."""
     try:
-        tree = etree.parse(str(path), _parser())
+        tree = etree.parse(str(path), safe_parser())
     except OSError as exc:
         raise SspError(path, f"cannot be read: {exc}") from exc
     except etree.XMLSyntaxError as exc:
@@ -162,7 +162,7 @@ def serialize_validated(root: etree._Element, path: Path, schema_name: str) -> b
     would have in the file; nothing is written when the document is invalid.
     """
     data = etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True)
-    tree = etree.ElementTree(etree.fromstring(data, _parser()))
+    tree = etree.ElementTree(etree.fromstring(data, safe_parser()))
     _validate(tree, schema_name, path, note=" (file not written)")
     return data
 

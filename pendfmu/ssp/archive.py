@@ -16,15 +16,23 @@ from __future__ import annotations
 import shutil
 import tempfile
 import zipfile
+import zlib
 from pathlib import Path, PurePosixPath
 
-from pendfmu.ssp._xml import Locator, SspError
+from pendfmu.atomic import write_atomically
+from pendfmu.ssp._xml import Locator, SspError, safe_parser
 from pendfmu.ssp.check import check_system
 from pendfmu.ssp.fmu import check_against_fmu
 from pendfmu.ssp.model import FmuComponent, System
-from pendfmu.ssp.ssd import read_ssd, write_ssd
+from pendfmu.ssp.ssd import read_ssd, resolve_source, write_ssd
+from pendfmu.tempfolders import temporary_folder
 
 SSD_NAME = "SystemStructure.ssd"  # the default SSD every SSP must have, at the archive root
+# What an SSP may make pendfmu unpack: a zip of 1.8 MB can hold 1 GiB of zeros. Only the SSD
+# and the files it names are unpacked, and within these limits.
+MAX_MEMBERS = 10_000            # an SSP holds an SSD, SSV files and FMUs: tens of members, not thousands
+MAX_MEMBER_BYTES = 1 << 30      # one member: an FMU with binaries for several platforms runs to hundreds of MB
+MAX_TOTAL_BYTES = 4 << 30       # all members unpacked for one system
 
 
 def _member_name(system: System, source: str) -> str:
@@ -112,41 +120,124 @@ def write_ssp(system: System, path: str | Path, *, system_connectors: bool = Tru
             target.parent.mkdir(parents=True, exist_ok=True)
             _pack_fmu(system, users, target)
             files.append(target)
-        partial = path.with_name(path.name + ".part")  # never leave a half-written archive behind
-        with zipfile.ZipFile(partial, "w", compression=zipfile.ZIP_DEFLATED) as archive:
-            for file in files:
-                archive.write(file, file.relative_to(root).as_posix())
-        partial.replace(path)
-    return path
+
+        def pack(out) -> None:
+            with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+                for file in files:
+                    archive.write(file, file.relative_to(root).as_posix())
+
+        return write_atomically(path, writer=pack)  # never a half-written archive
+
+
+def _open_archive(path: Path) -> zipfile.ZipFile:
+    try:
+        return zipfile.ZipFile(path)
+    except (OSError, zipfile.BadZipFile) as exc:
+        raise SspError(path, f"is not a readable SSP (zip) archive: {exc}") from exc
+
+
+def _members(path: Path, archive: zipfile.ZipFile) -> dict[str, zipfile.ZipInfo]:
+    """The archive's files by their normalized names, refusing before anything is unpacked:
+    too many members, a member that points outside the archive (zip slip), two members of
+    one name (also where only the case differs: one file on Windows and macOS), and a name
+    that is a file and a folder at once (resources, resources/Cart.fmu)."""
+    infos = archive.infolist()
+    if len(infos) > MAX_MEMBERS:
+        raise SspError(path, f"holds {len(infos)} members, more than an SSP may ({MAX_MEMBERS})")
+    files: dict[str, zipfile.ZipInfo] = {}
+    seen: dict[str, str] = {}
+    folders: dict[str, str] = {}
+    for info in infos:
+        member = PurePosixPath(info.filename.replace("\\", "/"))
+        if member.is_absolute() or ".." in member.parts or not member.parts:
+            raise SspError(path, f"archive member {info.filename!r} points outside the archive")
+        name = member.as_posix()
+        if name.casefold() in seen:
+            raise SspError(path, f"archive members {seen[name.casefold()]!r} and {info.filename!r} name one file")
+        seen[name.casefold()] = info.filename
+        for parent in list(member.parents)[:-1]:
+            folders.setdefault(parent.as_posix().casefold(), info.filename)
+        if not info.is_dir():
+            files[name] = info
+    for name, info in files.items():
+        if name.casefold() in folders:
+            raise SspError(path, f"archive member {info.filename!r} is a file, but {folders[name.casefold()]!r} "
+                                 f"makes it a folder")
+    return files
+
+
+def _referenced(ssd_file: Path, root: Path) -> list[str]:
+    """The archive paths the SSD names (every ``source``: components' FMUs, parameter value
+    and mapping files) that lie inside the archive, as ssd.py resolves them; an SSD that does
+    not parse names none (reading it then says why)."""
+    from lxml import etree
+
+    try:
+        document = etree.parse(str(ssd_file), safe_parser())
+    except etree.XMLSyntaxError:
+        return []
+    names = []
+    for element in document.iter():
+        source = element.get("source") if isinstance(element.tag, str) else None
+        local = resolve_source(root, source) if source else None
+        if local is not None:
+            names.append(local.relative_to(root).as_posix())
+    return names
+
+
+def _unpack(path: Path, archive: zipfile.ZipFile, info: zipfile.ZipInfo, target: Path, unpacked: int) -> int:
+    """Unpack one member below `target` (its size checked against the limits first, its
+    CRC checked as it is read); returns the bytes unpacked so far, this member included."""
+    if info.file_size > MAX_MEMBER_BYTES:
+        raise SspError(f"{path}!{info.filename}", f"unpacks to {info.file_size} bytes, more than a member of an SSP "
+                                                  f"may ({MAX_MEMBER_BYTES})")
+    if unpacked + info.file_size > MAX_TOTAL_BYTES:
+        raise SspError(path, f"the members the system names unpack to more than {MAX_TOTAL_BYTES} bytes")
+    destination = target.joinpath(*PurePosixPath(info.filename.replace("\\", "/")).parts)
+    destination.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        with archive.open(info) as member:
+            write_atomically(destination, iter(lambda: member.read(1 << 20), b""))
+    except (zipfile.BadZipFile, zlib.error, EOFError, RuntimeError, NotImplementedError) as exc:
+        raise SspError(f"{path}!{info.filename}", f"cannot be unpacked: {exc}") from None
+    return unpacked + info.file_size
 
 
 def _extract(path: Path, target: Path) -> None:
-    """Unzip `path` into `target`, refusing members that would land outside it."""
-    try:
-        archive = zipfile.ZipFile(path)
-    except (OSError, zipfile.BadZipFile) as exc:
-        raise SspError(path, f"is not a readable SSP (zip) archive: {exc}") from exc
-    with archive:
-        for member in archive.namelist():
-            parts = PurePosixPath(member).parts
-            if PurePosixPath(member).is_absolute() or ".." in parts:
-                raise SspError(path, f"archive member {member!r} points outside the archive")
-        if SSD_NAME not in archive.namelist():
+    """Unpack into `target` the SSD of `path` and the members it names, nothing else."""
+    with _open_archive(path) as archive:
+        files = _members(path, archive)
+        if SSD_NAME not in files:
             raise SspError(path, f"has no {SSD_NAME} at its root, which every SSP must have")
-        archive.extractall(target)
+        unpacked = _unpack(path, archive, files[SSD_NAME], target, 0)
+        for name in dict.fromkeys(_referenced(target / SSD_NAME, target)):
+            if name in files:
+                unpacked = _unpack(path, archive, files[name], target, unpacked)
 
 
 def read_ssp(path: str | Path, extract_dir: str | Path | None = None) -> System:
-    """Read an SSP archive: unpack it and read its SystemStructure.ssd with its FMUs and SSVs.
+    """Read an SSP archive: unpack its SSD and the files the SSD names (its FMUs and SSVs),
+    within MAX_MEMBERS, MAX_MEMBER_BYTES and MAX_TOTAL_BYTES, and read them.
 
-    The archive is unpacked into `extract_dir` (a new temporary directory if None, which the
-    caller then owns); the components' ``fmu`` paths point into it, so the returned system
+    The archive is unpacked into `extract_dir` (which the caller owns), else into a new
+    temporary folder removed when the process ends (tempfolders.py), or at once when the
+    archive is refused; the components' ``fmu`` paths point into it, so the returned system
     can be simulated directly. Errors name the archive and the member, e.g.
     ``rig.ssp!SystemStructure.ssd:12: <ssd:Connection ...>: ...``.
     """
     path = Path(path)
-    target = Path(extract_dir) if extract_dir is not None else Path(tempfile.mkdtemp(prefix="pendfmu-ssp-"))
-    target.mkdir(parents=True, exist_ok=True)
+    if extract_dir is not None:
+        Path(extract_dir).mkdir(parents=True, exist_ok=True)
+        return _read_into(path, Path(extract_dir))
+    target = temporary_folder("pendfmu-ssp-")
+    try:
+        return _read_into(path, target)
+    except BaseException:
+        shutil.rmtree(target, ignore_errors=True)
+        raise
+
+
+def _read_into(path: Path, target: Path) -> System:
     _extract(path, target)
     try:
         return read_ssd(target / SSD_NAME, require_fmus=True)

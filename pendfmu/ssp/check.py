@@ -8,6 +8,7 @@ a system parsed from files, where a Locator turns a failure back into file and l
 
 from __future__ import annotations
 
+from pendfmu.escaping import xml_name
 from pendfmu.ssp._xml import Locator
 from pendfmu.ssp.model import KINDS, TYPES, Connection, System
 
@@ -28,10 +29,27 @@ def check_system(system: System, locator: Locator | None = None) -> None:
     locator = locator or Locator(f"system {system.name!r}")
     if not system.parameter_set:
         raise locator.error(("system",), "system", "the parameter set needs a name")
+    _check_names(system)
     _check_components(system, locator)
     _check_system_connectors(system, locator)
     _check_connections(system, locator)
     _check_parameters(system, locator)
+
+
+def _check_names(system: System) -> None:
+    """Every name the files will hold is one XML can hold (escaping.xml_name), before any
+    element is built: a control character in a name given on the command line is refused."""
+    xml_name(system.name, "the system")
+    xml_name(system.parameter_set, "the parameter set")
+    for connector in system.connectors:
+        xml_name(connector.name, "a system connector")
+    for name, component in system.components.items():
+        xml_name(name, "a component")
+        for connector in component.connectors:
+            xml_name(connector.name, f"component {name}: a connector")
+    for name, values in system.parameters.items():
+        for parameter in values:
+            xml_name(parameter, f"component {name}: a parameter")
 
 
 def _check_unit(system: System, unit: str | None, key: tuple, what: str, locator: Locator) -> None:

@@ -36,6 +36,8 @@ from urllib.parse import unquote, urlparse
 from lxml import etree
 
 from pendfmu import __version__
+from pendfmu.atomic import write_atomically
+from pendfmu.escaping import xml_text
 from pendfmu.ssp._xml import (
     SSC_NS, SSD_NSMAP, SSD_SCHEMA, Locator, format_double, read_units, read_validated,
     serialize_validated, ssc, ssd, units_element,
@@ -114,7 +116,7 @@ def ssd_element(system: System, *, system_connectors: bool = True) -> etree._Ele
                          name=system.name, generationTool=f"pendfmu {__version__}")
     sys_el = etree.SubElement(root, ssd("System"), name=system.name)
     if system.description:
-        sys_el.set("description", system.description)
+        sys_el.set("description", xml_text(system.description))
     if system.connectors and system_connectors:
         sys_el.append(_connectors_element(system.connectors))
     if system.components:
@@ -152,13 +154,13 @@ def write_ssd(system: System, path: str | Path, *, system_connectors: bool = Tru
         if system.parameters.get(name):
             written.append(write_ssv(system.parameter_set_of(name), path.parent / system.parameter_source(name)))
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(data)
+    write_atomically(path, data)
     return written
 
 
 # ----------------------------------------------------------------------------- reading
 
-def _resolve(base: Path, uri: str) -> Path | None:
+def resolve_source(base: Path, uri: str) -> Path | None:
     """The local file a relative URI names, or None for URIs pendfmu does not follow.
 
     Only relative references that stay below the SSD's directory are followed: the
@@ -222,7 +224,7 @@ def _read_bindings(el: etree._Element, ssd_path: Path, locator: Locator, found: 
             raise locator.at(binding, "parameter mappings and prefixes are not supported")
         if binding.get("sourceBase", "SSD") != "SSD":
             raise locator.at(binding, "parameter sources inside the component are not supported")
-        ssv_path = _resolve(ssd_path.parent, source)
+        ssv_path = resolve_source(ssd_path.parent, source)
         if ssv_path is None or not ssv_path.is_file():
             raise locator.at(binding, f"parameter file {source!r} not found"
                                       + ("" if ssv_path is None else f" at {ssv_path}"))
@@ -276,7 +278,7 @@ def read_ssd(path: str | Path, *, require_fmus: bool = False) -> System:
         if name in components:
             raise locator.at(el, f"a second component named {name!r}; names must be unique in a system")
         locator.note(("component", name), el)
-        fmu = _resolve(path.parent, el.get("source"))
+        fmu = resolve_source(path.parent, el.get("source"))
         components[name] = FmuComponent(name, el.get("source"), _read_connectors(el, name, locator),
                                         el.get("implementation", "any"),
                                         fmu if fmu is not None and fmu.is_file() else None)

@@ -13,6 +13,7 @@ from pathlib import Path
 from lxml import etree
 
 from pendfmu import __version__
+from pendfmu.atomic import write_atomically
 from pendfmu.ssp._xml import (
     SSV_NSMAP, SSV_SCHEMA, Locator, SspError, format_double, parse_bool, read_units,
     read_validated, serialize_validated, ssv, units_element,
@@ -62,8 +63,7 @@ def write_ssv(parameter_set: ParameterSet, path: str | Path) -> Path:
     path = Path(path)
     data = serialize_validated(parameter_set_element(parameter_set, path), path, SSV_SCHEMA)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(data)
-    return path
+    return write_atomically(path, data)
 
 
 def _read_value(typed: etree._Element, locator: Locator) -> ParameterValue:

@@ -74,11 +74,31 @@ def _dynamic_checks() -> list[str]:
 
 
 def _observed(path: str, module: str, check: str) -> dict:
+    """The check's rows, and whether the model counted activity while it ran: the check runs
+    in a process of pendfmu's (pendfmu/check/contain.py), so its group's `run` is wrapped to
+    count there and to hand the count back as a row of its own, taken out here."""
     from pendfmu.check import run_battery
+    from pendfmu.check.battery import DYNAMIC
+    from pendfmu.check.fmu import CheckResult
 
-    before = _activity(module)
-    rows = _rows(run_battery(path, only=(check,)))
-    return {"check": check, "rows": rows, "moved": _activity(module) != before}
+    group = next(m for m in DYNAMIC if m.__name__.endswith("." + check))
+    real = group.run
+
+    def counted(target, kind):
+        before = _activity(module)
+        rows = real(target, kind)
+        return rows + [CheckResult(COUNTED, True, str(_activity(module) - before))]
+
+    group.run = counted
+    try:
+        results = run_battery(path, only=(check,))
+    finally:
+        group.run = real
+    moved = sum(int(r.figure) for r in results if r.name == COUNTED) > 0
+    return {"check": check, "rows": _rows([r for r in results if r.name != COUNTED]), "moved": moved}
+
+
+COUNTED = "activity counted"
 
 
 def _activity(module: str) -> int:
