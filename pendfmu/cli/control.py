@@ -1,8 +1,9 @@
 """From a fit to a controller: design balance and swing-up from a fit result, write it as an FMU.
 
-    pendfmu control RESULT.json --out DIR [--task balance|swing-up] [--sample-time 1e-3]
-                    [--current-limit 5] [--track 0.4] [--weights x=0.05 phi=0.01 ...]
-                    [--no-compensation] [--dx M] [--dphi RAD]
+    pendfmu control RESULT.json --out DIR [--task balance|swing-up]
+        [--sample-time 1e-3] [--current-limit 5] [--track 0.4]
+        [--weights x=0.05 phi=0.01 ...] [--no-compensation]
+        [--dx M] [--dphi RAD]
 
 Writes DIR/RigController.fmu (FMI 2.0) and DIR/fmi3/RigController.fmu (FMI 3.0), Co-Simulation
 and Model Exchange, whose parameters are the design (retune them without compiling),
