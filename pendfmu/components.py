@@ -364,10 +364,16 @@ def _rig_controller_parameters() -> tuple[Variable, ...]:
         ("v_stuck", "m/s", "Friction compensation: below this speed the cart counts as stuck"),
         ("F_ramp", "N", "Friction compensation: wanted force over which the breakaway builds up to F_Sc"),
     )
-    # MODEL.md's reference rig (its gains 0: `pendfmu control` writes a design's values as the starts)
+    # MODEL.md's reference rig and its design with the default options, to 6 digits (checked
+    # against a fresh design by tests/test_control.py): the FMU as built balances that rig;
+    # `pendfmu control` writes a fit's design as the starts
     reference = {"M": 3.2, "m_p": 0.2, "l": 0.3, "J_p": 0.024, "g": 9.81, "eta": 0.4, "k_F": 0.06 * 628.3,
                  "k_fwc": 30.0, "F_Kc": 8.0, "F_Sc": 12.0, "k_fwp": 1e-3, "T_i": 0.3e-3, "dIdt_max": 2500.0,
-                 "I_max": 5.0, "x_max": 0.4, "phi_catch": 0.3, "v_stuck": 5e-3, "F_ramp": 3.0}
+                 "I_max": 5.0, "x_max": 0.4, "phi_catch": 0.3, "v_stuck": 5e-3, "F_ramp": 3.0,
+                 "k_E": 20.0, "a_swing": 6.0, "k_xs": 8.0, "k_vs": 6.0, "K_x": -49.3243, "K_v": -39.6039,
+                 "K_phi": -165.477, "K_w": -26.6965, "K_drive": 0.00810862, "Lx_x": 0.981597, "Lx_phi": 2.55442e-08,
+                 "Lv_x": 941.851, "Lv_phi": -1.89793e-05, "Lphi_x": 0.0100838, "Lphi_phi": 0.158613, "Lw_x": 22.8444,
+                 "Lw_phi": 13.6627}
     return tuple(_param(name, reference.get(name, 0.0), unit, description)
                  for name, unit, description in (*rig, *gains, *law))
 

@@ -66,13 +66,17 @@ def test_fmu_equals_the_python_law_sample_by_sample(eta, compensation):
 
 
 def test_table_defaults_are_the_reference_rig():
-    """The RigController's start values for the rig are MODEL.md's reference rig, as its design has them."""
+    """The RigController's start values are MODEL.md's reference rig, as its design has them,
+    and that design's gains and swing-up law to the table's 6 digits: the FMU as built is a
+    controller of that rig (a changed design must be copied into the table)."""
     from pendfmu.components import RIG_CONTROLLER
 
     designed = fmu_parameters(design(rig_defaults()))
     for name in ("M", "m_p", "l", "J_p", "g", "eta", "A_back", "k_F", "k_fwc", "F_Kc", "F_Sc", "k_fwp", "T_i",
                  "dIdt_max", "T_s", "I_max", "x_max"):
         assert RIG_CONTROLLER.variable(name).start == pytest.approx(designed[name], rel=1e-12), name
+    for name, value in designed.items():
+        assert RIG_CONTROLLER.variable(name).start == pytest.approx(value, rel=1e-5), name
 
 
 # ------------------------------------------------ closed loop around the reference simulator
