@@ -1,4 +1,5 @@
-"""The variable tables of the component FMUs (the rig's three and the Controller): the single source of truth.
+"""The variable tables of the component FMUs (the rig's three, the Controller and the RigController): the single
+source of truth.
 
 Everything that names a variable is generated from these tables: each FMU's
 ``modelDescription.xml``, the C header with its value references, start values and
@@ -329,10 +330,87 @@ CONTROLLER = Component(
     ),
 )
 
+# The RigController's estimator state, in this order (pendfmu/control/plant.py), and the LQR's:
+# the same but for the fifth, the drive (the cart's acceleration on the self-locking axis, else
+# the motor current).
+RIG_STATES = ("x", "v", "phi", "w", "I")
+RIG_READINGS = ("x", "phi")
+RIG_LQR_STATES = ("x", "v", "phi", "w", "drive")
+
+
+def _rig_controller_parameters() -> tuple[Variable, ...]:
+    """The RigController's parameters: its design (pendfmu/control/design.py's Design), flat."""
+    rig = (
+        ("M", "kg", "Moving mass of the cart, m_c + m_p"), ("m_p", "kg", "Mass of the pendulum"),
+        ("l", "m", "Distance from the pivot to the pendulum's centre of mass"),
+        ("J_p", "kg.m2", "Moment of inertia of the pendulum about the pivot"), ("g", "m/s2", "Gravity"),
+        ("eta", "1", "Efficiency of the lead screw"),
+        ("A_back", "1", "Back-drive efficiency of the screw (0: self-locking)"),
+        ("k_F", "N/A", "Drive force per ampere before the screw, k_M*k_D"),
+        ("k_fwc", "N.s/m", "Viscous friction of the cart"), ("F_Kc", "N", "Coulomb friction of the cart"),
+        ("F_Sc", "N", "Breakaway force of the cart, max(F_Sc, F_Kc)"),
+        ("k_fwp", "N.m.s", "Viscous friction of the pivot"),
+        ("T_i", "s", "Time constant of the current loop"), ("dIdt_max", "A/s", "Slope limit of the current loop"),
+    )
+    gains = [(f"K_{s}", "", f"LQR gain on the estimate of {s} (x: its error from x_ref)") for s in RIG_LQR_STATES]
+    gains += [(f"L{s}_{y}", "", f"Estimator gain of {s} on the innovation of {y}")
+              for s in RIG_STATES for y in RIG_READINGS]
+    law = (
+        ("I_max", "A", "Current limit"), ("x_max", "m", "Track half-length"),
+        ("k_E", "m/s2", "Swing-up: acceleration per unit of the energy missing, over m_p*g*l"),
+        ("a_swing", "m/s2", "Swing-up: limit of the pumping acceleration"),
+        ("k_xs", "1/s2", "Swing-up: centring gain on x - x_ref"), ("k_vs", "1/s", "Swing-up: centring gain on v"),
+        ("phi_catch", "rad", "Balance takes over within this angle of upright (and lets go at twice it)"),
+        ("v_stuck", "m/s", "Friction compensation: below this speed the cart counts as stuck"),
+        ("F_ramp", "N", "Friction compensation: wanted force over which the breakaway builds up to F_Sc"),
+    )
+    # MODEL.md's reference rig and its design with the default options, to 6 digits (checked
+    # against a fresh design by tests/test_control.py): the FMU as built balances that rig;
+    # `pendfmu control` writes a fit's design as the starts
+    reference = {"M": 3.2, "m_p": 0.2, "l": 0.3, "J_p": 0.024, "g": 9.81, "eta": 0.4, "k_F": 0.06 * 628.3,
+                 "k_fwc": 30.0, "F_Kc": 8.0, "F_Sc": 12.0, "k_fwp": 1e-3, "T_i": 0.3e-3, "dIdt_max": 2500.0,
+                 "I_max": 5.0, "x_max": 0.4, "phi_catch": 0.3, "v_stuck": 5e-3, "F_ramp": 3.0,
+                 "k_E": 20.0, "a_swing": 6.0, "k_xs": 8.0, "k_vs": 6.0, "K_x": -49.3243, "K_v": -39.6039,
+                 "K_phi": -165.477, "K_w": -26.6965, "K_drive": 0.00810862, "Lx_x": 0.981597, "Lx_phi": 2.55442e-08,
+                 "Lv_x": 941.851, "Lv_phi": -1.89793e-05, "Lphi_x": 0.0100838, "Lphi_phi": 0.158613, "Lw_x": 22.8444,
+                 "Lw_phi": 13.6627}
+    return tuple(_param(name, reference.get(name, 0.0), unit, description)
+                 for name, unit, description in (*rig, *gains, *law))
+
+
+RIG_CONTROLLER = Component(
+    name="RigController",
+    description="Balance and swing-up controller of the pendulum rig, designed from a fit (pendfmu control): "
+                "Kalman estimator from the encoders, LQR about upright, energy swing-up, friction compensation",
+    event_indicators=0,
+    store_size=12,
+    variables=(
+        _param("T_s", 1e-3, "s", "Sample time: samples at t_start + k*T_s", low=0.0, low_open=True),
+        *_rig_controller_parameters(),
+        Variable("x", "input", "continuous", 0.0, "m", "Cart position (the motor encoder's reading)"),
+        Variable("phi", "input", "continuous", math.pi, "rad",
+                 "Pendulum angle from the upward vertical, continuous (pi hanging; any multiple of 2*pi)"),
+        Variable("x_ref", "input", "continuous", 0.0, "m", "Reference position of the cart"),
+        Variable("I_c", "output", "discrete", None, "A", "Command current, held from one sample to the next",
+                 depends_on=("x", "phi", "x_ref")),
+        *(Variable(f"{s}_hat", "local", "discrete", None, unit, f"Estimate of {s} after the last sample")
+          for s, unit in zip(RIG_STATES, ("m", "m/s", "rad", "rad/s", ""))),
+        Variable("cancelled", "local", "discrete", None, "N", "Friction force compensated at the last sample"),
+        _t_mode(),
+        _mode("Task of the last sample: 0 swing-up, 1 balance"),
+        Variable("swing_up", "parameter", "fixed", False, "", "Swing up from anywhere (else balance only)",
+                 type="Boolean"),
+        Variable("compensation", "parameter", "fixed", True, "", "Compensate the cart's identified friction",
+                 type="Boolean"),
+        Variable("axis", "parameter", "fixed", True, "",
+                 "The LQR commands the cart's acceleration (self-locking screw), else the current", type="Boolean"),
+    ),
+)
+
 # The rig's components: their parameters form the rig's parameter table.
 COMPONENTS: dict[str, Component] = {c.name: c for c in (CURRENT_LOOP, CART, PENDULUM)}
 # Components that are no part of the rig, used around it in systems (a controller in the loop).
-CONTROL_COMPONENTS: dict[str, Component] = {c.name: c for c in (CONTROLLER,)}
+CONTROL_COMPONENTS: dict[str, Component] = {c.name: c for c in (CONTROLLER, RIG_CONTROLLER)}
 # Every component FMU that `pendfmu build` makes.
 ALL_COMPONENTS: dict[str, Component] = {**COMPONENTS, **CONTROL_COMPONENTS}
 

@@ -246,7 +246,13 @@ def test_pendulum_small_angle_period():
 ROLLBACK_RUNS = {"Cart": ({"v0": 0.3}, lambda t: {"I": 2.0 * math.sin(20 * t)}, ["x", "v", "mode"]),
                  "Pendulum": ({"phi0": 2.0}, lambda t: {"a": 0.5 * math.sin(9 * t)}, ["phi", "w", "mode"]),
                  "CurrentLoop": ({}, lambda t: {"I_c": 1.5 * math.sin(30 * t)}, ["I"]),
-                 "Controller": ({"K_i": 5.0}, lambda t: {"r": 1.0, "y": math.sin(40 * t)}, ["u", "u_I"])}
+                 "Controller": ({"K_i": 5.0}, lambda t: {"r": 1.0, "y": math.sin(40 * t)}, ["u", "u_I"]),
+                 # swinging through upright and back: both of its modes, its estimator moving
+                 "RigController": ({"swing_up": True, "k_E": 20.0, "a_swing": 5.0, "k_xs": 8.0, "k_vs": 6.0,
+                                    "K_phi": -150.0, "K_w": -25.0, "Lx_x": 0.5, "Lv_x": 10.0, "Lphi_phi": 0.5,
+                                    "Lw_phi": 10.0},
+                                   lambda t: {"x": 0.02 * math.sin(10 * t), "phi": math.pi + 3.3 * math.sin(6 * t)},
+                                   ["I_c", "x_hat", "w_hat", "mode"])}
 
 
 @pytest.mark.parametrize("name", NAMES)

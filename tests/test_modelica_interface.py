@@ -20,7 +20,10 @@ import pytest
 import rumoca
 
 from modelica_declarations import LIBRARY, ModelicaClass, ModelicaSyntaxError, evaluate, parse_class, read_class
-from pendfmu.components import ALL_COMPONENTS as COMPONENTS, Component
+from pendfmu.components import ALL_COMPONENTS, Component
+
+# The RigController (issue 27) has no Modelica class yet: its law is pendfmu/control and its C twin.
+COMPONENTS = {name: component for name, component in ALL_COMPONENTS.items() if name != "RigController"}
 
 FMU_ONLY = {"solver_step", "t_mode", "t_sample", "der(I_mean)", "der(F_e)"}
 PUBLIC = ("parameter", "input", "output")

@@ -18,14 +18,15 @@ import traceback
 from collections.abc import Sequence
 
 from pendfmu import __version__
-from pendfmu.cli import build, check, demo, export, fit, laws, recording_format, report, rig, simulate, system
+from pendfmu.cli import build, check, control, demo, export, fit, laws, recording_format, report, rig, simulate, system
 from pendfmu.cli.argv import command_options, untangle
 from pendfmu.errors import (EXIT_BAD_INPUT, EXIT_BUILD_FAILED, EXIT_MODEL_FAILED, EXIT_SUSPICIOUS, EXIT_WORKERS_FAILED,
                             BadInput, BuildError, FMUError, OptionError, Suspicious, WorkersFailed)
 from pendfmu.suggest import did_you_mean
 
 SUBCOMMANDS = {"build": build, "demo": demo, "rig": rig, "simulate": simulate, "fit": fit, "laws": laws,
-               "export": export, "system": system, "check": check, "report": report, "format": recording_format}
+               "export": export, "system": system, "check": check, "report": report, "format": recording_format,
+               "control": control}
 
 
 # Words a subcommand takes as positionals, so that a list option before them stops there

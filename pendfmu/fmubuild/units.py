@@ -26,4 +26,7 @@ BASE_UNITS: dict[str, dict[str, int]] = {
     "N/s": {"kg": 1, "m": 1, "s": -3},  # rate of a force (the Cart's electrical lag)
     "N.m.s": {"kg": 1, "m": 2, "s": -1},
     "N.m.s2": {"kg": 1, "m": 2},  # quadratic drag k_dp: torque per (rad/s)^2
+    "1/s": {"s": -1},  # the RigController's gains
+    "1/s2": {"s": -2},
+    "N/A": {"kg": 1, "m": 1, "s": -2, "A": -1},
 }

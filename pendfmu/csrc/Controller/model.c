@@ -98,45 +98,10 @@ void model_initial_states(Instance *inst) {
     FLAG(saturated) = false;
 }
 
-/* No continuous dynamics: the framework's integrator has nothing to do. */
-double model_max_step(const Instance *inst) {
-    (void)inst;
-    return INFINITY;
-}
+/* No continuous dynamics: the framework's integrator has nothing to do; outputs change at samples only. */
+NO_CONTINUOUS_DYNAMICS
 
-bool model_exact_step(Instance *inst, double t, const double *x, double h, double *x_out) {
-    (void)inst, (void)t, (void)x, (void)h, (void)x_out;
-    return true;
-}
-
-void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {
-    (void)inst, (void)t, (void)x, (void)dx;
-}
-
-void model_event_indicators(const Instance *inst, double t, const double *x, double *z) {
-    (void)inst, (void)t, (void)x, (void)z;
-}
-
-/* The mode (saturation) changes at samples only. */
-bool model_update_mode(Instance *inst, double t, double *x) {
-    (void)inst, (void)t, (void)x;
-    return false;
-}
-
-/* Outputs are set at the samples and held in between. */
-void model_outputs(Instance *inst, double t, const double *x) { (void)inst, (void)t, (void)x; }
-
-double model_next_time_event(const Instance *inst) {
-    return inst->s.store[ST_T0] + inst->s.store[ST_K] * R(T_s);
-}
-
-/* A communication point within a hundredth of a sample time of a sample is that sample's
- * instant: logged time stamps jitter (EMPS's by 3e-8 s around whole milliseconds), and a
- * sample taken in the step before would read the previous point's inputs, and the step
- * after would hold two samples. */
-double model_time_event_window(const Instance *inst) {
-    return SAMPLE_JITTER * R(T_s);
-}
+SAMPLED_EVERY_T_S(ST_T0, ST_K, SAMPLE_JITTER)
 
 void model_time_event(Instance *inst, double t, bool commit) {
     double *store = inst->s.store;

@@ -309,4 +309,32 @@ double model_time_event_window(const Instance *inst);
     void model_time_event(Instance *inst, double t, bool commit) { (void)inst, (void)t, (void)commit; } \
     double model_time_event_window(const Instance *inst) { (void)inst; return 0.0; }
 
+/* The continuous hooks of a purely sampled model (a controller), which has no continuous
+ * states, event indicators or modes between samples: one line in its model.c. Its outputs
+ * are set at the samples and held in between. */
+#define NO_CONTINUOUS_DYNAMICS                                                                  \
+    double model_max_step(const Instance *inst) { (void)inst; return INFINITY; }               \
+    bool model_exact_step(Instance *inst, double t, const double *x, double h, double *x_out) { \
+        (void)inst, (void)t, (void)x, (void)h, (void)x_out;                                     \
+        return true;                                                                            \
+    }                                                                                           \
+    void model_derivatives(const Instance *inst, double t, const double *x, double *dx) {      \
+        (void)inst, (void)t, (void)x, (void)dx;                                                 \
+    }                                                                                           \
+    void model_event_indicators(const Instance *inst, double t, const double *x, double *z) {  \
+        (void)inst, (void)t, (void)x, (void)z;                                                  \
+    }                                                                                           \
+    bool model_update_mode(Instance *inst, double t, double *x) { (void)inst, (void)t, (void)x; return false; } \
+    void model_outputs(Instance *inst, double t, const double *x) { (void)inst, (void)t, (void)x; }
+
+/* The time-event hooks of a model sampled at t_0 + k T_s (the start time t_0 in store slot T0,
+ * the samples taken so far, k, in slot K): a communication point within JITTER T_s of a sample
+ * is that sample's instant (logged time stamps jitter: EMPS's by 3e-8 s around whole
+ * milliseconds, and a sample taken in the step before would read the previous point's inputs). */
+#define SAMPLED_EVERY_T_S(T0, K, JITTER)                                                        \
+    double model_next_time_event(const Instance *inst) {                                        \
+        return inst->s.store[T0] + inst->s.store[K] * R(T_s);                                   \
+    }                                                                                           \
+    double model_time_event_window(const Instance *inst) { return (JITTER) * R(T_s); }
+
 #endif

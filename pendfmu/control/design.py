@@ -1,0 +1,145 @@
+"""The design: from identified rig values to the controller's gains and settings.
+
+Balance is a discrete LQR on the linearization about upright, sampled at T_s with the
+command held (zero-order hold), the current loop's lag included. Why LQR: the controller
+holds two outputs (x, phi) with one input, from estimated states; LQR gives a stabilizing
+gain on all five states at once from weights that read as the requirements (how far the
+cart may wander, how far the pendulum may lean, how hard the motor may work), where pole
+placement would ask for five poles chosen by hand with no handle on the current's RMS.
+
+- A self-locking screw (eta <= 0.5, A = 0): the pendulum cannot push the cart, so the cart
+  is an acceleration-commanded axis: the LQR commands an acceleration and the controller
+  turns it into a current by inverting the identified cart model (plant.RigModel.cart_force).
+- A back-drivable screw: the LQR acts on the coupled model with the current as its input.
+
+The state estimator is a steady-state Kalman filter on the same linearization, its
+measurement noise the encoders' quantization (a reading rounded to steps of delta has
+variance delta^2/12), its process noise the force and torque the model misses (friction).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+from scipy.linalg import solve_discrete_are
+
+from pendfmu.control.plant import RigModel, discretize
+
+ENCODER_COUNTS = 1024  # MODEL.md: both encoders, when no sidecar tells the resolution
+
+
+@dataclass(frozen=True)
+class Weights:
+    """LQR weights as scales: the cart's position error [m], the pendulum's angle [rad], the
+    speeds [m/s, rad/s] and the cart acceleration [m/s^2] that each cost as much as the others
+    (Bryson's rule). A larger scale tolerates more of it."""
+
+    x: float = 0.02
+    phi: float = 0.01
+    v: float = 0.5
+    w: float = 1.0
+    a: float = 1.0
+
+
+@dataclass(frozen=True)
+class Options:
+    """What the user chooses: task ("balance" or "swing-up"), sample period T_s [s], current
+    limit I_max [A], track half-length x_max [m], weights, friction compensation, encoder
+    resolutions dx [m] and dphi [rad] (None: MODEL.md's encoders), and the estimator's
+    process noise: the force sigma_F [N] and torque sigma_T [N m] the model misses."""
+
+    task: str = "balance"
+    T_s: float = 1e-3
+    I_max: float = 5.0
+    x_max: float = 0.4
+    weights: Weights = field(default_factory=Weights)
+    compensation: bool = True
+    dx: float | None = None
+    dphi: float | None = None
+    sigma_F: float = 2.0
+    sigma_T: float = 0.02
+
+
+@dataclass(frozen=True)
+class Design:
+    """Everything the controller runs with, as flat numbers (the FMU's parameters).
+
+    Attributes: the rig (RigModel's fields), the options' T_s, I_max, x_max, swing_up and
+    compensation; axis: the LQR commands an acceleration (self-locking) rather than a current;
+    K: the LQR gains on (x - x_ref, v, phi, w, a or I); L: the estimator's gains (5 x 2) on
+    the innovations of x and phi; the swing-up's energy gain k_E [m/s^2], its acceleration
+    limit a_swing and centring gains k_xs [1/s^2], k_vs [1/s]; phi_catch [rad], where balance
+    takes over; v_stuck [m/s], below which the cart counts as stuck, and F_ramp [N], the wanted
+    force over which the breakaway compensation builds up.
+    """
+
+    rig: RigModel
+    T_s: float
+    I_max: float
+    x_max: float
+    swing_up: bool
+    compensation: bool
+    axis: bool
+    K: tuple[float, ...]
+    L: tuple[tuple[float, float], ...]
+    k_E: float
+    a_swing: float
+    k_xs: float
+    k_vs: float
+    phi_catch: float
+    v_stuck: float
+    F_ramp: float
+
+
+def lqr_gain(Phi: np.ndarray, Gamma: np.ndarray, Q: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """The discrete LQR's gain K (u = -K s) from the Riccati equation's solution."""
+    P = solve_discrete_are(Phi, Gamma, Q, R)
+    return np.linalg.solve(R + Gamma.T @ P @ Gamma, Gamma.T @ P @ Phi)
+
+
+def balance_gain(rig: RigModel, options: Options) -> tuple[bool, np.ndarray]:
+    """(axis, K): the LQR on the acceleration-commanded axis for a self-locking screw, on the
+    coupled model with the current as input otherwise; the input's weight is the same cart
+    acceleration in both (a current of eta k_F / M per m/s^2)."""
+    w = options.weights
+    Q = np.diag([1 / w.x**2, 1 / w.v**2, 1 / w.phi**2, 1 / w.w**2, 0.0])
+    if rig.self_locking:
+        A, B = rig.axis_linear()
+        R = np.array([[1 / w.a**2]])
+    else:
+        A, B = rig.linear()
+        R = np.array([[(rig.eta * rig.k_F / rig.M / w.a) ** 2]])
+    Phi, Gamma = discretize(A, B, options.T_s)
+    return rig.self_locking, lqr_gain(Phi, Gamma, Q, R)[0]
+
+
+def estimator_gain(rig: RigModel, options: Options, dx: float, dphi: float) -> np.ndarray:
+    """The steady-state Kalman gain L (5 x 2) of the corrected estimate s + L (y - C s)."""
+    A, B = rig.linear()
+    Phi, _ = discretize(A, B, options.T_s)
+    G = np.zeros((5, 2))
+    G[1, 0], G[3, 1] = 1 / rig.M, 1 / rig.J
+    Qd = G @ np.diag([options.sigma_F**2, options.sigma_T**2]) @ G.T * options.T_s
+    C = np.zeros((2, 5))
+    C[0, 0] = C[1, 2] = 1.0
+    Rd = np.diag([dx**2 / 12, dphi**2 / 12])
+    P = solve_discrete_are(Phi.T, C.T, Qd, Rd)
+    return P @ C.T @ np.linalg.inv(C @ P @ C.T + Rd)
+
+
+def design(parameters: Mapping[str, float], options: Options = Options()) -> Design:
+    """The controller for the rig of `parameters` (every rig parameter by MODEL.md name)."""
+    rig = RigModel.from_parameters(parameters)
+    dx = options.dx or 2 * math.pi / (ENCODER_COUNTS * parameters["k_D"])
+    dphi = options.dphi or 2 * math.pi / ENCODER_COUNTS
+    axis, K = balance_gain(rig, options)
+    L = estimator_gain(rig, options, dx, dphi)
+    a_drive = (rig.eta * rig.k_F * options.I_max - rig.F_Sc) / rig.M  # what the current limit leaves
+    return Design(rig=rig, T_s=options.T_s, I_max=options.I_max, x_max=options.x_max,
+                  swing_up=options.task == "swing-up", compensation=options.compensation, axis=axis,
+                  K=tuple(float(k) for k in K), L=tuple((float(r[0]), float(r[1])) for r in L),
+                  k_E=20.0, a_swing=min(6.0, 0.5 * a_drive), k_xs=8.0, k_vs=6.0, phi_catch=0.3,
+                  v_stuck=5e-3, F_ramp=3.0)

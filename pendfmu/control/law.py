@@ -1,0 +1,95 @@
+"""The controller, one sample at a time: estimate, choose swing-up or balance, command a current.
+
+This is the reference the C component (csrc/RigController/model.c) is tested against:
+the same operations in the same order. Each sample, from the encoder readings x and phi:
+
+1. correct the predicted state with the innovations (Kalman gain L; phi's innovation wrapped);
+2. balance near upright (LQR), else (task swing-up) pump the pendulum's energy;
+3. turn the wanted drive force into a current, adding the friction the cart is believed to
+   have (compensation) and limiting it to +-I_max;
+4. predict the next sample's state under that current (plant.RigModel.predict).
+"""
+
+from __future__ import annotations
+
+import math
+
+from pendfmu.control.design import Design
+from pendfmu.control.plant import wrap
+
+SWING, BALANCE = 0, 1
+
+
+def sgn(value: float) -> float:
+    """MODEL.md's sign: sgn(0) = 1 (a pendulum hanging at rest gets its first push)."""
+    return 1.0 if value >= 0.0 else -1.0
+
+
+class Controller:
+    """The sampled controller of a Design; `step(x, phi, x_ref)` returns the command I_c [A]."""
+
+    def __init__(self, design: Design):
+        self.d = design
+        self.s: list[float] | None = None  # the state predicted for the coming sample
+        self.mode = BALANCE
+        self.cancelled = 0.0  # the force spent on friction at the last sample [N]
+
+    def step(self, x: float, phi: float, x_ref: float = 0.0) -> float:
+        s = self.correct(x, wrap(phi))
+        self.mode = self.choose_mode(s)
+        if self.mode == BALANCE:
+            force = self.balance_force(s, x_ref)
+        else:
+            force = self.d.rig.cart_force(self.swing_acceleration(s, x_ref), s[1], s[2], s[3])
+        rig = self.d.rig
+        cancelled = self.compensation(force, s[1])
+        I_c = max(-self.d.I_max, min(self.d.I_max, (force + cancelled) / (rig.eta * rig.k_F)))
+        self.cancelled = cancelled
+        self.s = rig.predict(s, I_c, cancelled, self.d.T_s)
+        return I_c
+
+    def correct(self, x: float, phi: float) -> list[float]:
+        """The estimate after this sample's readings (the first sample starts at rest there)."""
+        if self.s is None:
+            return [x, 0.0, phi, 0.0, 0.0]
+        e_x, e_phi = x - self.s[0], wrap(phi - self.s[2])
+        s = [si + g_x * e_x + g_phi * e_phi for si, (g_x, g_phi) in zip(self.s, self.d.L)]
+        s[2] = wrap(s[2])
+        return s
+
+    def choose_mode(self, s: list[float]) -> int:
+        """Balance for the balance task; for swing-up, balance once within phi_catch of upright
+        and until the pendulum falls past twice that."""
+        if not self.d.swing_up:
+            return BALANCE
+        limit = self.d.phi_catch if self.mode == SWING else 2.0 * self.d.phi_catch
+        return BALANCE if abs(s[2]) < limit else SWING
+
+    def balance_force(self, s: list[float], x_ref: float) -> float:
+        """The LQR's drive force: from an acceleration on the self-locking axis, or a current."""
+        rig, K = self.d.rig, self.d.K
+        if self.d.axis:
+            a = rig.accelerations(s[1], s[2], s[3], rig.eta * rig.k_F * s[4] - self.cancelled)[0]
+            a_c = -(K[0] * (s[0] - x_ref) + K[1] * s[1] + K[2] * s[2] + K[3] * s[3] + K[4] * a)
+            return rig.cart_force(a_c, s[1], s[2], s[3])
+        I = -(K[0] * (s[0] - x_ref) + K[1] * s[1] + K[2] * s[2] + K[3] * s[3] + K[4] * s[4])
+        return rig.eta * rig.k_F * I
+
+    def swing_acceleration(self, s: list[float], x_ref: float) -> float:
+        """The energy law: push the cart against w cos(phi) in proportion to the energy missing
+        to upright (E = 0 there), within a_swing, while springs pull the cart back to x_ref."""
+        d, rig = self.d, self.d.rig
+        E = 0.5 * rig.J * (s[3] * s[3]) + rig.m * rig.g * rig.l * (math.cos(s[2]) - 1.0)
+        pump = d.k_E * E / (rig.m * rig.g * rig.l) * sgn(s[3] * math.cos(s[2]))
+        pump = max(-d.a_swing, min(d.a_swing, pump))
+        return pump - d.k_xs * (s[0] - x_ref) - d.k_vs * s[1]
+
+    def compensation(self, force: float, v: float) -> float:
+        """The cart's friction as identified: Coulomb against a sliding cart; a stuck one is
+        broken away in the direction of the wanted force, the full stiction from F_ramp on."""
+        if not self.d.compensation:
+            return 0.0
+        rig = self.d.rig
+        if abs(v) > self.d.v_stuck:
+            return rig.F_Kc * sgn(v)
+        return rig.F_Sc * max(-1.0, min(1.0, force / self.d.F_ramp))

@@ -1,0 +1,140 @@
+"""`pendfmu control`'s work: options checked, the design made from a fit result, and written.
+
+design.json holds every number of the design (the FMU's parameters) and what it rests on;
+report.md says in words what was designed: the model (self-locking axis or coupled), the
+values assumed, the LQR's and the estimator's closed-loop poles (discrete, and as continuous
+time constants), the limits.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from pendfmu.atomic import write_atomically
+from pendfmu.control.design import Design, Options, Weights, design
+from pendfmu.control.export import fmu_parameters, write_fmus
+from pendfmu.control.fromfit import rig_values, sidecar_resolutions
+from pendfmu.control.plant import discretize
+from pendfmu.errors import OptionError
+
+
+def _positive(option: str, value: float | None) -> None:
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise OptionError(option, f"{value} must be a positive number")
+
+
+def weights_from(items: list[str]) -> Weights:
+    """Weights from NAME=SCALE words (--weights x=0.05 phi=0.01)."""
+    values = {}
+    names = Weights.__dataclass_fields__
+    for item in items:
+        name, _, text = item.partition("=")
+        if name not in names:
+            raise OptionError("weights", f"{item!r}: the name must be one of {', '.join(names)} (NAME=SCALE)")
+        try:
+            values[name] = float(text)
+        except ValueError:
+            raise OptionError("weights", f"{item!r}: the scale {text!r} is not a number") from None
+        _positive("weights", values[name])
+    return Weights(**values)
+
+
+def options_from(args, resolutions: dict[str, float]) -> Options:
+    """The design's Options from the command line (checked, one line per fault)."""
+    for option, value in (("sample_time", args.sample_time), ("current_limit", args.current_limit),
+                          ("track", args.track), ("dx", args.dx), ("dphi", args.dphi)):
+        _positive(option, value)
+    return Options(task=args.task, T_s=args.sample_time, I_max=args.current_limit, x_max=args.track,
+                   weights=weights_from(args.weights), compensation=not args.no_compensation,
+                   dx=args.dx or resolutions.get("x"), dphi=args.dphi or resolutions.get("phi"))
+
+
+def design_from_result(path: str, args) -> tuple[Design, dict[str, float], list[str]]:
+    """The design for the fit result at `path`, the rig values it rests on and notes on what it assumed."""
+    from pendfmu.fitting.result import read_result
+
+    result = read_result(path)
+    values, assumed = rig_values(result)
+    resolutions = sidecar_resolutions(result)
+    options = options_from(args, resolutions)
+    notes = [f"{name} = {values[name]:g}: not in the result, MODEL.md's reference value" for name in assumed]
+    notes += [f"encoder resolution of {name}: {'the sidecars' if name in resolutions else 'MODEL.md'}"
+              for name in ("x", "phi") if getattr(args, "d" + name) is None]
+    return design(values, options), values, notes
+
+
+def closed_loop_poles(the_design: Design) -> dict[str, list[float]]:
+    """The magnitudes of the balance loop's and the estimator's discrete poles, slowest first."""
+    rig = the_design.rig
+    A, B = rig.axis_linear() if the_design.axis else rig.linear()
+    Phi, Gamma = discretize(A, B, the_design.T_s)
+    loop = np.linalg.eigvals(Phi - Gamma @ np.array([the_design.K]))
+    A_e, B_e = rig.linear()
+    Phi_e, _ = discretize(A_e, B_e, the_design.T_s)
+    C = np.zeros((2, 5))
+    C[0, 0] = C[1, 2] = 1.0
+    estimator = np.linalg.eigvals(Phi_e - Phi_e @ np.array(the_design.L) @ C)
+    return {name: sorted((float(abs(p)) for p in poles), reverse=True)
+            for name, poles in (("balance", loop), ("estimator", estimator))}
+
+
+def report_text(the_design: Design, notes: list[str]) -> str:
+    rig, poles = the_design.rig, closed_loop_poles(the_design)
+    model = ("self-locking screw (eta = {:.3f} <= 0.5): the cart as an acceleration-commanded axis, its current "
+             "from the identified cart model inverted".format(rig.eta) if the_design.axis else
+             "back-drivable screw (eta = {:.3f}): the coupled cart and pendulum, the current as input".format(rig.eta))
+    slowest = {name: -the_design.T_s / math.log(values[0]) for name, values in poles.items()}
+    lines = ["# RigController design", "",
+             f"- task: {'swing-up and balance' if the_design.swing_up else 'balance'}; T_s = {the_design.T_s:g} s; "
+             f"current limit {the_design.I_max:g} A; track +-{the_design.x_max:g} m",
+             f"- model: {model}",
+             f"- friction compensation: {'on' if the_design.compensation else 'off'} (F_Kc = {rig.F_Kc:.3g} N, "
+             f"breakaway {rig.F_Sc:.3g} N)",
+             f"- LQR gains K (x, v, phi, w, drive): {', '.join(f'{k:.4g}' for k in the_design.K)}",
+             f"- slowest balance pole |z| = {poles['balance'][0]:.5f} (time constant {slowest['balance']:.3g} s); "
+             f"slowest estimator pole |z| = {poles['estimator'][0]:.5f} ({slowest['estimator']:.3g} s)",
+             *(f"- {note}" for note in notes), ""]
+    return "\n".join(lines)
+
+
+def loop_connections(the_design: Design) -> list[str]:
+    """The rig's wiring (pendfmu.ssp.rig: the pendulum fed back for a back-drivable screw) and
+    the controller's: the encoders' x and phi in, its current command to the current loop."""
+    from pendfmu.ssp.rig import BACK_DRIVE, DRIVE
+
+    pairs = DRIVE + (BACK_DRIVE if the_design.rig.A > 0 else ())
+    pairs += (("Cart.x", "RigController.x"), ("Pendulum.phi", "RigController.phi"),
+              ("RigController.I_c", "CurrentLoop.I_c"))
+    return [f"{start}={end}" for start, end in pairs]
+
+
+def write_loop_ssp(the_design: Design, values: dict[str, float], out: Path) -> Path:
+    """out/ClosedLoop.ssp: the identified rig's FMUs (pendfmu's components with the fit's
+    values) and out/RigController.fmu, sampled at T_s; its free input is x_ref. The pendulum
+    starts hanging for swing-up, 0.1 rad from upright for balance (Pendulum.phi0)."""
+    from pendfmu.components import COMPONENTS
+    from pendfmu.ssp.archive import write_ssp
+    from pendfmu.ssp.compose import compose
+
+    given = {f"{component}.{name}": values[name] for component, table in COMPONENTS.items()
+             for name in table.parameters if name in values}
+    given["Pendulum.phi0"] = math.pi if the_design.swing_up else 0.1
+    parts = {name: name for name in COMPONENTS} | {"RigController": out / "RigController.fmu"}
+    system = compose(parts, loop_connections(the_design), given, name="ClosedLoop", step_size=the_design.T_s,
+                     description="The identified rig in closed loop with the RigController designed from its fit")
+    return write_ssp(system, out / "ClosedLoop.ssp")
+
+
+def write_outputs(the_design: Design, values: dict[str, float], notes: list[str], out: Path) -> list[Path]:
+    """The two FMUs, the closed loop's SSP, design.json and report.md in `out`."""
+    out.mkdir(parents=True, exist_ok=True)
+    paths = write_fmus(the_design, out)
+    paths.append(write_loop_ssp(the_design, values, out))
+    document = {"parameters": fmu_parameters(the_design), "notes": notes, "poles": closed_loop_poles(the_design)}
+    paths.append(write_atomically(out / "design.json", json.dumps(document, indent=2) + "\n"))
+    paths.append(write_atomically(out / "report.md", report_text(the_design, notes)))
+    return paths
