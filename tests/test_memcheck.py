@@ -21,7 +21,7 @@ from pendfmu.fmubuild.compiler import FMI_HEADERS
 DRIVER = Path(__file__).with_name("memcheck") / "driver.c"
 DRIVER3 = Path(__file__).with_name("memcheck") / "driver3.c"
 # a parameter whose negative value is non-physical, per component
-NEGATIVE = {"CurrentLoop": "T_i", "Cart": "m_c", "Pendulum": "m_p", "Controller": "T_s"}
+NEGATIVE = {"CurrentLoop": "T_i", "Cart": "m_c", "Pendulum": "m_p", "Controller": "T_s", "RigController": "T_s"}
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind not installed")]
