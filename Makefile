@@ -28,9 +28,10 @@ demo: fmus
 test: tools fmus
 	$(PY) -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m "not acceptance"
 
-# The runs marked acceptance (pytest.mark.acceptance in the test modules): the real-data examples and fits whose
-# single run takes minutes, each a repeat at full length of what make test checks on a shorter
-# path. Run before a release and after changing the fit's search, intervals or the examples.
+# The runs marked acceptance (pytest.mark.acceptance in the test modules): the README's walkthrough
+# as written (bootstrap intervals), the real-data examples and fits whose single run takes
+# minutes, and further cases of what make test checks once (a second law, a second basin, a
+# second seed). Run before a release and after changing the fit's search, intervals or examples.
 acceptance: tools fmus
 	$(PY) -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m acceptance
 

@@ -24,8 +24,15 @@ import pytest
 from pendfmu.cli import main
 from pendfmu.virtual_rig import Trial, steps, write_experiments
 
-# Every fit here: a global search of 2 generations of 2 candidates per parameter, Jacobian intervals.
-BASE = ["--generations", "2", "--population", "2", "--uncertainty", "jacobian"]
+# Every fit here: a global search of 2 generations of 2 candidates per parameter, Jacobian
+# intervals, in this process (--workers 1: a pool of worker processes cost these small fits a
+# third of their CPU time to start). An option BASE also sets is tested without BASE's word.
+SEARCH = ["--generations", "2", "--population", "2"]
+INTERVALS = ["--uncertainty", "jacobian"]
+IN_PROCESS = ["--workers", "1"]
+BASE = SEARCH + INTERVALS + IN_PROCESS
+BASE_WITHOUT = {"uncertainty": SEARCH + IN_PROCESS, "no-global": INTERVALS + IN_PROCESS,
+                "workers": SEARCH + INTERVALS}
 TARGETS = ("current", "cart", "pendulum", "all", "fmu", "system")
 
 
@@ -253,7 +260,7 @@ def test_each_option_applies_or_is_refused(setup, parameter_files, option, targe
         assert f"--{option}" in err or option in err, err
         return
     words, check = case
-    base = {"uncertainty": BASE[:4], "no-global": BASE[4:]}.get(option, BASE)
+    base = BASE_WITHOUT.get(option, BASE)
     code, provenance, err = fit(setup, target, _words(setup, words), tmp_path, capsys, base=base)
     assert code == 0, f"{option} on {target}: exit {code}\n{err}"
     assert check(provenance), f"{option} on {target}: not applied; provenance stages: {provenance['stages']}"
@@ -312,7 +319,7 @@ def api_arguments(setup, target):
     from pendfmu.fitting.optimizer import GlobalOptions
 
     root, words = setup
-    search = GlobalOptions(popsize=2, maxiter=2)
+    search = GlobalOptions(popsize=2, maxiter=2, workers=1)  # BASE's --workers 1
     if target == "fmu":
         return (str(root / "ForeignCart.fmu"), [words["fmu"][2]]), dict(free=["k_u", "c_v"],
                                                                        params=str(root / "start.json"),

@@ -112,6 +112,9 @@ def test_a_rig_with_stiction_gets_the_stiction_law(stiction_rig, capsys):
     assert "+ stiction" in (folder / "report" / "index.html").read_text()
 
 
+# The Stribeck and offset rigs (30 and 17 s) are make acceptance's: make test keeps the stiction
+# rig's ranking end to end and the ladder's rules below, on which every recommendation rests.
+@pytest.mark.acceptance
 @pytest.mark.parametrize("extra", [{"v_Sc": 0.03}], ids=["stribeck"])
 def test_a_rig_with_stribeck_friction_gets_the_stribeck_law(extra):
     truth = {**reference_truth(), **extra}
@@ -123,6 +126,7 @@ def test_a_rig_with_stribeck_friction_gets_the_stribeck_law(extra):
     assert stribeck.whole.values["v_Sc"] == pytest.approx(0.03, rel=0.2)
 
 
+@pytest.mark.acceptance
 def test_a_pendulum_with_an_offset_torque_gets_the_offset_law():
     truth = {**reference_truth(), "T_Op": 0.02}
     start = {"k_fwp": 1.2e-3, "T_Kp": 1.7e-3, "T_Sp": 4.4e-3}

@@ -64,6 +64,7 @@ def test_halves_apart_by_what_no_sensor_shows_leave_a_fit_of_its_own_model_adequ
     assert windows["parameters"]["eta"]["ratio"] > 2  # judged by their intervals, the halves disagree
 
 
+@pytest.mark.acceptance  # its own fit, 35 s: make test keeps the other adequate-halves case
 def test_halves_that_alone_end_in_another_basin_leave_a_fit_of_its_own_model_adequate(other_basin):
     result, truth = other_basin
     windows = _adequate_cart(result)
