@@ -363,6 +363,9 @@ def _rig_controller_parameters() -> tuple[Variable, ...]:
         ("phi_catch", "rad", "Balance takes over within this angle of upright (and lets go at twice it)"),
         ("v_stuck", "m/s", "Friction compensation: below this speed the cart counts as stuck"),
         ("F_ramp", "N", "Friction compensation: wanted force over which the breakaway builds up to F_Sc"),
+        ("x_quantum", "m", "Input x rounded to a multiple of this before use (0: as given): an encoder emulated "
+                           "when the loop is closed on a continuous model; leave 0 on the rig"),
+        ("phi_quantum", "rad", "Input phi rounded to a multiple of this before use (0: as given), as x_quantum"),
     )
     # MODEL.md's reference rig and its design with the default options, to 6 digits (checked
     # against a fresh design by tests/test_control.py): the FMU as built balances that rig;

@@ -3,7 +3,7 @@
     pendfmu control RESULT.json --out DIR [--task balance|swing-up]
         [--sample-time 1e-3] [--current-limit 5] [--track 0.4]
         [--weights x=0.05 phi=0.01 ...] [--no-compensation]
-        [--dx M] [--dphi RAD]
+        [--dx M] [--dphi RAD] [--duration 20] [--no-verify] [--workers N] [--scheduler ADDRESS]
 
 Writes DIR/RigController.fmu (FMI 2.0) and DIR/fmi3/RigController.fmu (FMI 3.0), Co-Simulation
 and Model Exchange, whose parameters are the design (retune them without compiling),
@@ -12,6 +12,12 @@ DIR/design.json and DIR/report.md: the model it was designed on, the gains and t
 loop's poles. The design: a discrete LQR about upright (on the self-locking screw's cart as
 an acceleration-commanded axis, else on the coupled model), a Kalman filter from the
 encoders' resolutions, an energy swing-up and the identified friction compensated.
+
+Then the verification before the rig (pendfmu/control/verify.py): the closed loop co-simulated
+on the identified model and on every bootstrap replicate the result holds, balance (and
+swing-up) for --duration s, compensation as designed and switched, the encoders quantized;
+each run judged by the issue's requirements. DIR/verification.json has every run's figures,
+DIR/verification.png the runs, and report.md the table with the replicates' success rate.
 """
 
 from __future__ import annotations
@@ -34,14 +40,42 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-compensation", action="store_true", help="do not compensate the cart's friction")
     parser.add_argument("--dx", type=float, help="cart encoder resolution [m] (default: the sidecars, else MODEL.md)")
     parser.add_argument("--dphi", type=float, help="pendulum encoder resolution [rad] (default: as --dx)")
+    parser.add_argument("--duration", type=float, default=20.0,
+                        help="length of each verification run [s] (default 20; the figures are over its last 10 s)")
+    parser.add_argument("--no-verify", action="store_true", help="write the design without the closed-loop runs")
+    parser.add_argument("--workers", type=int, default=0,
+                        help="worker processes for the verification's runs (default: one per core)")
+    parser.add_argument("--scheduler", metavar="ADDRESS", help="run the verification on this Dask scheduler's workers")
 
 
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from pendfmu.control.report import design_from_result, write_outputs
+    from pendfmu.control.report import design_from, write_outputs, write_verification
+    from pendfmu.control.verify import replicate_rigs, verify
+    from pendfmu.errors import OptionError
+    from pendfmu.fitting.result import read_result
 
-    the_design, values, notes = design_from_result(args.result, args)
-    for path in write_outputs(the_design, values, notes, Path(args.out)):
+    if not (args.duration > 1e3 * args.sample_time and args.duration <= 3600):
+        raise OptionError("duration", f"{args.duration} s: more than a thousand samples and at most an hour")
+    if args.workers < 0:
+        raise OptionError("workers", f"{args.workers}: 0 (one per core) or more")
+    result = read_result(args.result)
+    the_design, values, notes = design_from(result, args)
+    out = Path(args.out)
+    paths = write_outputs(the_design, values, notes, out)
+    if not args.no_verify:
+        replicates = replicate_rigs(result)
+        print(f"verifying in closed loop: the identified model and {len(replicates)} bootstrap replicates, "
+              f"{args.duration:g} s each", flush=True)
+        checked = verify(the_design, values, replicates, out / "ClosedLoop.ssp", args.duration,
+                         workers=args.workers, scheduler=args.scheduler)
+        paths += write_verification(checked, the_design, notes, out)
+        for row in checked.summary():
+            rate = (f"; replicates meeting them: {row['replicates_meeting']} of {row['replicates']}"
+                    if row["replicates"] else "")
+            print(f"  {row['task']}, compensation {'on' if row['compensation'] else 'off'}: identified model "
+                  f"{'meets' if row['identified']['meets'] else 'MISSES'} the requirements{rate}")
+    for path in dict.fromkeys(paths):  # report.md is written again with the verification
         print(path)
     return 0

@@ -73,7 +73,8 @@ class Design:
     the innovations of x and phi; the swing-up's energy gain k_E [m/s^2], its acceleration
     limit a_swing and centring gains k_xs [1/s^2], k_vs [1/s]; phi_catch [rad], where balance
     takes over; v_stuck [m/s], below which the cart counts as stuck, and F_ramp [N], the wanted
-    force over which the breakaway compensation builds up.
+    force over which the breakaway compensation builds up; x_quantum [m] and phi_quantum [rad],
+    the steps the inputs are rounded to (0: none).
     """
 
     rig: RigModel
@@ -92,6 +93,10 @@ class Design:
     phi_catch: float
     v_stuck: float
     F_ramp: float
+    # the inputs rounded to these steps before use (0: as given): the encoders, emulated when
+    # the loop is closed on a continuous model (verify.py); the rig's readings are counts already
+    x_quantum: float = 0.0
+    phi_quantum: float = 0.0
 
 
 def lqr_gain(Phi: np.ndarray, Gamma: np.ndarray, Q: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -17,7 +17,8 @@ from pendfmu.control.design import Design
 _RIG_NAMES = {"M": "M", "m": "m_p", "l": "l", "J": "J_p", "g": "g", "eta": "eta", "A": "A_back", "k_F": "k_F",
               "k_fwc": "k_fwc", "F_Kc": "F_Kc", "F_Sc": "F_Sc", "k_fwp": "k_fwp", "T_i": "T_i",
               "dIdt_max": "dIdt_max"}
-_LAW_NAMES = ("T_s", "I_max", "x_max", "k_E", "a_swing", "k_xs", "k_vs", "phi_catch", "v_stuck", "F_ramp")
+_LAW_NAMES = ("T_s", "I_max", "x_max", "k_E", "a_swing", "k_xs", "k_vs", "phi_catch", "v_stuck", "F_ramp",
+              "x_quantum", "phi_quantum")
 
 
 def fmu_parameters(design: Design) -> dict[str, float | bool]:

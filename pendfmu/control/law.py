@@ -25,6 +25,11 @@ def sgn(value: float) -> float:
     return 1.0 if value >= 0.0 else -1.0
 
 
+def quantized(value: float, step: float) -> float:
+    """`value` rounded to the nearest multiple of `step` (halves up); as it is for step 0."""
+    return math.floor(value / step + 0.5) * step if step > 0.0 else value
+
+
 class Controller:
     """The sampled controller of a Design; `step(x, phi, x_ref)` returns the command I_c [A]."""
 
@@ -35,7 +40,7 @@ class Controller:
         self.cancelled = 0.0  # the force spent on friction at the last sample [N]
 
     def step(self, x: float, phi: float, x_ref: float = 0.0) -> float:
-        s = self.correct(x, wrap(phi))
+        s = self.correct(quantized(x, self.d.x_quantum), wrap(quantized(phi, self.d.phi_quantum)))
         self.mode = self.choose_mode(s)
         if self.mode == BALANCE:
             force = self.balance_force(s, x_ref)

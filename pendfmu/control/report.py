@@ -57,7 +57,11 @@ def design_from_result(path: str, args) -> tuple[Design, dict[str, float], list[
     """The design for the fit result at `path`, the rig values it rests on and notes on what it assumed."""
     from pendfmu.fitting.result import read_result
 
-    result = read_result(path)
+    return design_from(read_result(path), args)
+
+
+def design_from(result, args) -> tuple[Design, dict[str, float], list[str]]:
+    """The design for a read fit result (design_from_result)."""
     values, assumed = rig_values(result)
     resolutions = sidecar_resolutions(result)
     options = options_from(args, resolutions)
@@ -137,4 +141,83 @@ def write_outputs(the_design: Design, values: dict[str, float], notes: list[str]
     document = {"parameters": fmu_parameters(the_design), "notes": notes, "poles": closed_loop_poles(the_design)}
     paths.append(write_atomically(out / "design.json", json.dumps(document, indent=2) + "\n"))
     paths.append(write_atomically(out / "report.md", report_text(the_design, notes)))
+    return paths
+
+
+def verification_text(checked) -> str:
+    """report.md's section on the closed-loop verification (verify.py): a row per task and
+    compensation, the identified model's figures and the replicates' success rate and worst."""
+    req = checked.requirements
+    track = req.x_peak if req.x_peak is not None else checked.track
+    lines = ["## Verification in closed loop", "",
+             f"Requirements: capture within {req.capture:g} s; over the last {WINDOW_TEXT}: RMS phi <= "
+             f"{req.phi_steps:g} encoder step(s), RMS x <= {1000 * req.x_rms:g} mm, RMS I_c <= {req.I_rms:g} A; "
+             f"|x| <= {1000 * track:g} mm throughout. {len(checked.outcomes)} runs in {checked.seconds:.1f} s.", "",
+             "| task | compensation | rig | capture [s] | RMS phi [steps] | RMS x [mm] | RMS I_c [A] | max abs x [mm] "
+             "| meets |", "|---|---|---|---|---|---|---|---|---|"]
+    for row in checked.summary():
+        on = "on" if row["compensation"] else "off"
+        lines.append(_figures_row(row["task"], on, "identified", row["identified"],
+                                  "yes" if row["identified"]["meets"] else "NO"))
+        if row["replicates"]:
+            lines.append(_figures_row(row["task"], on, f"worst of {row['replicates']} replicates",
+                                      row["worst_replicate"],
+                                      f"{row['replicates_meeting']} of {row['replicates']}"))
+    if not any(row["replicates"] for row in checked.summary()):
+        lines += ["", "The result holds no bootstrap replicates (its intervals are Jacobian or sandwich ones, or "
+                      "it was written before pendfmu kept them): verified on the identified model only."]
+    lines += ["", "![closed loop](verification.png)", ""]
+    return "\n".join(lines)
+
+
+WINDOW_TEXT = "10 s (half the run if shorter)"
+
+
+def _figures_row(task: str, compensation: str, rig: str, figures: dict, meets: str) -> str:
+    capture = "not caught" if figures["capture"] is None else f"{figures['capture']:.2f}"
+    cells = [_cell(figures["phi_steps"]), _cell(figures["x_rms"], 1000), _cell(figures["I_rms"]),
+             _cell(figures["x_peak"], 1000)]
+    return f"| {task} | {compensation} | {rig} | {capture} | {' | '.join(cells)} | {meets} |"
+
+
+def _cell(value: float | None, scale: float = 1.0) -> str:
+    return "-" if value is None else f"{scale * value:.3g}"
+
+
+def plot_verification(checked, path: Path) -> Path:
+    """phi and x over time for every run with the design's compensation: the identified model
+    bold, the replicates thin; a panel per task."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = {task: [o for o in checked.outcomes if o.run.task == task and o.signals
+                     and o.run.compensation == checked.outcomes[0].run.compensation]
+              for task in dict.fromkeys(o.run.task for o in checked.outcomes)}
+    figure, axes = plt.subplots(2, len(groups), figsize=(6 * len(groups), 6), squeeze=False, sharex="col")
+    for column, (task, outcomes) in enumerate(groups.items()):
+        for outcome in sorted(outcomes, key=lambda o: o.run.rig == "identified"):
+            bold = outcome.run.rig == "identified"
+            style = dict(color="k" if bold else "tab:blue", lw=1.5 if bold else 0.5, alpha=1.0 if bold else 0.4)
+            time = np.asarray(outcome.signals["time"])
+            angle = np.mod(np.asarray(outcome.signals["phi"]) + math.pi, 2 * math.pi) - math.pi
+            angle[1:][np.abs(np.diff(angle)) > math.pi] = np.nan  # no line across a wrap at +-pi
+            axes[0, column].plot(time, angle, **style)
+            axes[1, column].plot(time, 1000 * np.asarray(outcome.signals["x"]), **style)
+        axes[0, column].set_title(f"{task}: identified model (black), replicates (blue)")
+        axes[0, column].set_ylabel("phi from upright [rad]")
+        axes[1, column].set_ylabel("x [mm]")
+        axes[1, column].set_xlabel("time [s]")
+    figure.tight_layout()
+    figure.savefig(path, dpi=90)
+    plt.close(figure)
+    return path
+
+
+def write_verification(checked, the_design: Design, notes: list[str], out: Path) -> list[Path]:
+    """verification.json, verification.png and report.md with the verification's section."""
+    document = json.dumps(checked.to_dict(), indent=2, allow_nan=False) + "\n"
+    paths = [write_atomically(out / "verification.json", document), plot_verification(checked, out / "verification.png")]
+    paths.append(write_atomically(out / "report.md", report_text(the_design, notes) + "\n" + verification_text(checked)))
     return paths

@@ -111,7 +111,9 @@ class FitResult:
     warnings: list[str] = field(default_factory=list)
     uncertainty: dict = field(default_factory=dict)  # how the intervals were made (method, replicates, time)
     model: str | None = None  # a user's FMU or SSP file (None: pendfmu's own components)
-    # per bootstrap replicate, the stage's fitted values (not written: later stages take them)
+    # per bootstrap replicate, the rig values its refits found (this stage's and, in `fit all`,
+    # the earlier stages' of the same replicate; a failed refit's row holds the estimate):
+    # later stages start from them, and `pendfmu control` verifies its design on them
     replicates: list[dict[str, float]] = field(default_factory=list, repr=False)
     # where it came from (fitting/provenance.py): inputs with sha256, seed, bounds, start
     # values, free and fixed sets, versions, date, command line
@@ -157,6 +159,7 @@ class FitResult:
             # display envelope (fitting/envelope.py): enough to re-render and compare reports
             "recordings": [experiment_dict(e) for e in self.experiments],
             "predicted": [experiment_dict(e) for e in self.predicted],
+            **({"replicates": self.replicates} if self.replicates else {}),
         }
 
     def write_json(self, path: str | Path) -> Path:
@@ -272,7 +275,8 @@ def _result_from(document: dict) -> FitResult:
         document.get("initial", {}), list(fit.get("notes", [])), fit.get("validation", {}),
         list(fit.get("warnings", [])), fit.get("uncertainty", {}), fit.get("model"),
         provenance=document.get("provenance", {}),
-        predicted=[_experiment_from(e) for e in document.get("predicted", [])], assessment=fit.get("assessment", {}))
+        predicted=[_experiment_from(e) for e in document.get("predicted", [])], assessment=fit.get("assessment", {}),
+        replicates=[{str(k): float(v) for k, v in row.items()} for row in document.get("replicates", [])])
 
 
 def _json_interval(interval: tuple[float, float] | None) -> list[float | None] | None:

@@ -98,6 +98,7 @@ def fit_sequence(spec: FitSpec, session: Session) -> FitResult:
                     for b, replicate in enumerate(result.replicates)] or upstream
         results.append(result)
     combined = _combine(results, values, groups.get(None, []))
+    combined.replicates = upstream
     combined.notes.extend(skipped)
     combined.provenance["request"] = spec.request()
     return combined

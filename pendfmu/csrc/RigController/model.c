@@ -43,6 +43,10 @@ static double wrap(double angle) {
 
 static double sgn(double value) { return value >= 0.0 ? 1.0 : -1.0; }
 
+/* The input rounded to a multiple of step (halves up), or as it is for step 0: an encoder
+ * emulated when the loop is closed on a continuous model (law.py's quantized). */
+static double quantized(double value, double step) { return step > 0.0 ? floor(value / step + 0.5) * step : value; }
+
 static double clamp(double value, double limit) { return fmax(-limit, fmin(limit, value)); }
 
 static void accelerations(const Instance *inst, double v, double phi, double w, double force, double *a,
@@ -140,6 +144,11 @@ bool model_check_parameters(const Instance *inst, char *why, size_t size) {
             snprintf(why, size, "RigController: %s = %g must be > 0", positive[j].name, positive[j].value);
             return false;
         }
+    if (!(R(x_quantum) >= 0.0) || !(R(phi_quantum) >= 0.0)) {
+        snprintf(why, size, "RigController: x_quantum = %g and phi_quantum = %g must be >= 0", R(x_quantum),
+                 R(phi_quantum));
+        return false;
+    }
     const double resolution = 1e3 * TIME_EVENT_TOLERANCE * fmax(1.0, fabs(inst->s.time));
     if (R(T_s) < resolution) {
         snprintf(why, size, "RigController: the sample time T_s = %g s is below %g s", R(T_s), resolution);
@@ -154,7 +163,8 @@ void model_initial_states(Instance *inst) {
     store[ST_T0] = inst->s.time;
     store[ST_MODE] = BALANCE;
     R(I_c) = 0.0;
-    R(x_hat) = R(x), R(v_hat) = 0.0, R(phi_hat) = wrap(R(phi)), R(w_hat) = 0.0, R(I_hat) = 0.0;
+    R(x_hat) = quantized(R(x), R(x_quantum)), R(v_hat) = 0.0, R(phi_hat) = wrap(quantized(R(phi), R(phi_quantum)));
+    R(w_hat) = 0.0, R(I_hat) = 0.0;
     R(cancelled) = 0.0;
     R(t_mode) = inst->s.time;
     MODE = BALANCE;
@@ -168,7 +178,7 @@ SAMPLED_EVERY_T_S(ST_T0, ST_K, SAMPLE_JITTER)
 void model_time_event(Instance *inst, double t, bool commit) {
     double *store = inst->s.store;
     double s[N_S];
-    correct(inst, store, R(x), wrap(R(phi)), s);
+    correct(inst, store, quantized(R(x), R(x_quantum)), wrap(quantized(R(phi), R(phi_quantum))), s);
     const int mode = choose_mode(inst, s, (int)store[ST_MODE]);
     const double force = mode == BALANCE ? balance_force(inst, s, R(x_ref), store[ST_CANCELLED])
                                          : cart_force(inst, swing_acceleration(inst, s, R(x_ref)), s[1], s[2], s[3]);
