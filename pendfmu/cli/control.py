@@ -4,6 +4,7 @@
         [--sample-time 1e-3] [--current-limit 5] [--track 0.4]
         [--weights x=0.05 phi=0.01 ...] [--no-compensation]
         [--dx M] [--dphi RAD] [--duration 20] [--no-verify] [--workers N] [--scheduler ADDRESS]
+        [--require capture=12 phi=1 x=0.01 I=1 track=0.4] [--tune]
 
 Writes DIR/RigController.fmu (FMI 2.0) and DIR/fmi3/RigController.fmu (FMI 3.0), Co-Simulation
 and Model Exchange, whose parameters are the design (retune them without compiling),
@@ -18,6 +19,9 @@ on the identified model and on every bootstrap replicate the result holds, balan
 swing-up) for --duration s, compensation as designed and switched, the encoders quantized;
 each run judged by the issue's requirements. DIR/verification.json has every run's figures,
 DIR/verification.png the runs, and report.md the table with the replicates' success rate.
+--require sets the requirements (capture [s], phi [encoder steps], x [m] and I [A] RMS over
+the last 10 s, track [m]); --tune first tunes the LQR weights by simulation until every run
+(the identified model and each replicate) meets them (verify.tune), and designs with those.
 """
 
 from __future__ import annotations
@@ -46,13 +50,47 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=0,
                         help="worker processes for the verification's runs (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDRESS", help="run the verification on this Dask scheduler's workers")
+    parser.add_argument("--require", nargs="+", default=[], metavar="NAME=VALUE",
+                        help="requirements: capture [s], phi [encoder steps], x [m] and I [A] RMS over the last "
+                             "10 s, track [m] (default: capture=12 phi=1 x=0.01 I=1, the --track)")
+    parser.add_argument("--tune", action="store_true",
+                        help="tune the LQR weights by simulation until the identified model and every replicate "
+                             "meet the requirements (from --weights)")
+
+
+REQUIREMENT_NAMES = {"capture": "capture", "phi": "phi_steps", "x": "x_rms", "I": "I_rms", "track": "x_peak"}
+
+
+def requirements_from(items: list[str]):
+    """Requirements from NAME=VALUE words (--require x=0.005 I=0.5)."""
+    from pendfmu.control.verify import Requirements
+    from pendfmu.errors import OptionError
+
+    values = {}
+    for item in items:
+        name, _, text = item.partition("=")
+        if name not in REQUIREMENT_NAMES:
+            raise OptionError("require", f"{item!r}: the name must be one of {', '.join(REQUIREMENT_NAMES)} "
+                                         f"(NAME=VALUE)")
+        try:
+            value = float(text)
+        except ValueError:
+            raise OptionError("require", f"{item!r}: {text!r} is not a number") from None
+        if not (value > 0 and value < float("inf")):
+            raise OptionError("require", f"{item!r}: must be a positive number")
+        values[REQUIREMENT_NAMES[name]] = value
+    return Requirements(**values)
 
 
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from pendfmu.control.report import design_from, write_outputs, write_verification
-    from pendfmu.control.verify import replicate_rigs, verify
+    import dataclasses
+
+    from pendfmu.control.design import design
+    from pendfmu.control.fromfit import sidecar_resolutions
+    from pendfmu.control.report import design_from, options_from, write_loop_ssp, write_outputs, write_verification
+    from pendfmu.control.verify import replicate_rigs, tune, verify
     from pendfmu.errors import OptionError
     from pendfmu.fitting.result import read_result
 
@@ -60,15 +98,27 @@ def run(args: argparse.Namespace) -> int:
         raise OptionError("duration", f"{args.duration} s: more than a thousand samples and at most an hour")
     if args.workers < 0:
         raise OptionError("workers", f"{args.workers}: 0 (one per core) or more")
+    if args.tune and args.no_verify:
+        raise OptionError("tune", "tunes by the verification's runs; --no-verify switches them off")
+    requirements = requirements_from(args.require)
     result = read_result(args.result)
     the_design, values, notes = design_from(result, args)
     out = Path(args.out)
+    replicates = replicate_rigs(result)
+    tuning = None
+    if args.tune:
+        out.mkdir(parents=True, exist_ok=True)
+        ssp = write_loop_ssp(the_design, values, out, built=False)  # the designs tried reach it as values
+        options = options_from(args, sidecar_resolutions(result))
+        tuning = tune(values, options, replicates, ssp, args.duration, requirements, args.workers, args.scheduler,
+                      say=lambda line: print(line, flush=True))
+        the_design = design(values, dataclasses.replace(options, weights=tuning.weights))
+        notes.append(f"weights tuned to the requirements by simulation: {len(tuning.tried)} designs tried")
     paths = write_outputs(the_design, values, notes, out)
     if not args.no_verify:
-        replicates = replicate_rigs(result)
         print(f"verifying in closed loop: the identified model and {len(replicates)} bootstrap replicates, "
               f"{args.duration:g} s each", flush=True)
-        checked = verify(the_design, values, replicates, out / "ClosedLoop.ssp", args.duration,
+        checked = verify(the_design, values, replicates, out / "ClosedLoop.ssp", args.duration, requirements,
                          workers=args.workers, scheduler=args.scheduler)
         paths += write_verification(checked, the_design, notes, out)
         for row in checked.summary():

@@ -116,10 +116,11 @@ def loop_connections(the_design: Design) -> list[str]:
     return [f"{start}={end}" for start, end in pairs]
 
 
-def write_loop_ssp(the_design: Design, values: dict[str, float], out: Path) -> Path:
+def write_loop_ssp(the_design: Design, values: dict[str, float], out: Path, built: bool = True) -> Path:
     """out/ClosedLoop.ssp: the identified rig's FMUs (pendfmu's components with the fit's
-    values) and out/RigController.fmu, sampled at T_s; its free input is x_ref. The pendulum
-    starts hanging for swing-up, 0.1 rad from upright for balance (Pendulum.phi0)."""
+    values) and out/RigController.fmu (`built`: written by write_fmus; else pendfmu's own,
+    the reference rig's design), sampled at T_s; its free input is x_ref. The pendulum starts
+    hanging for swing-up, 0.1 rad from upright for balance (Pendulum.phi0)."""
     from pendfmu.components import COMPONENTS
     from pendfmu.ssp.archive import write_ssp
     from pendfmu.ssp.compose import compose
@@ -127,7 +128,8 @@ def write_loop_ssp(the_design: Design, values: dict[str, float], out: Path) -> P
     given = {f"{component}.{name}": values[name] for component, table in COMPONENTS.items()
              for name in table.parameters if name in values}
     given["Pendulum.phi0"] = math.pi if the_design.swing_up else 0.1
-    parts = {name: name for name in COMPONENTS} | {"RigController": out / "RigController.fmu"}
+    parts = {name: name for name in COMPONENTS} | {"RigController": out / "RigController.fmu" if built
+                                                   else "RigController"}
     system = compose(parts, loop_connections(the_design), given, name="ClosedLoop", step_size=the_design.T_s,
                      description="The identified rig in closed loop with the RigController designed from its fit")
     return write_ssp(system, out / "ClosedLoop.ssp")
