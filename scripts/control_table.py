@@ -96,7 +96,25 @@ def main(argv=None) -> int:
     with ProcessPoolExecutor(args.workers) as pool:
         for result in pool.map(one_run, jobs):
             print(row(result), flush=True)
+    if not args.truth:
+        print("\npendfmu control's own verification over each fit's bootstrap replicates (compensation on):\n\n"
+              "| seed | task | identified model | replicates meeting the criteria |\n|---|---|---|---|", flush=True)
+        for seed in args.seeds:
+            for summary in verified(seed, args.work, args.duration):
+                if summary["compensation"]:
+                    print(f"| {seed} | {summary['task']} | {'meets' if summary['identified']['meets'] else 'MISSES'} "
+                          f"| {summary['replicates_meeting']} of {summary['replicates']} |", flush=True)
     return 0
+
+
+def verified(seed: int, work: Path, duration: float) -> list[dict]:
+    """`pendfmu control` on seed's fit (swing-up and balance): its verification's summary rows."""
+    import json
+
+    out = work / f"control{seed}"
+    subprocess.run([sys.executable, "-m", "pendfmu", "control", str(work / f"fit{seed}.json"), "--out", str(out),
+                    "--task", "swing-up", "--duration", str(duration)], check=True, stdout=subprocess.DEVNULL)
+    return json.loads((out / "verification.json").read_text())["summary"]
 
 
 if __name__ == "__main__":

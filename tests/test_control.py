@@ -51,15 +51,17 @@ class FMULaw:
         self.fmu.free()
 
 
-@pytest.mark.parametrize("eta, compensation, quantum", [(0.4, True, False), (0.75, True, False), (0.4, False, False),
-                                                       (0.75, True, True)])
-def test_fmu_equals_the_python_law_sample_by_sample(eta, compensation, quantum):
+@pytest.mark.parametrize("eta, compensation, quantum, track", [
+    (0.4, True, False, 0.4), (0.75, True, False, 0.4), (0.4, False, False, 0.4), (0.75, True, True, 0.4),
+    (0.4, True, False, 0.03)])
+def test_fmu_equals_the_python_law_sample_by_sample(eta, compensation, quantum, track):
     """The same commands to 1e-9 A; with `quantum` the readings are continuous and both round
-    them to the encoders' steps themselves (x_quantum, phi_quantum: the verification's encoders)."""
+    them to the encoders' steps themselves (x_quantum, phi_quantum: the verification's encoders);
+    on a 3 cm track the readings' 5 cm swings reach the track limit's braking."""
     import dataclasses
 
     params = {**rig_defaults(), "eta": eta}
-    the_design = design(params, Options(task="swing-up", compensation=compensation))
+    the_design = design(params, Options(task="swing-up", compensation=compensation, x_max=track))
     assert the_design.axis == (eta <= 0.5)
     x, phi = readings(2500, quantized=not quantum)
     if quantum:
@@ -73,6 +75,9 @@ def test_fmu_equals_the_python_law_sample_by_sample(eta, compensation, quantum):
     if quantum:  # the rounding happened: unrounded readings command otherwise
         unrounded = Controller(dataclasses.replace(the_design, x_quantum=0.0, phi_quantum=0.0))
         assert np.max(np.abs(python - [unrounded.step(x_k, phi_k, 0.01) for x_k, phi_k in zip(x, phi)])) > 1e-3
+    if track < 0.4:  # the braking happened: on the long track the law commands otherwise
+        long = Controller(dataclasses.replace(the_design, x_max=0.4))
+        assert np.max(np.abs(python - [long.step(x_k, phi_k, 0.01) for x_k, phi_k in zip(x, phi)])) > 1e-3
 
 
 def test_table_defaults_are_the_reference_rig():
@@ -339,3 +344,28 @@ def test_tuning_meets_a_requirement_the_default_weights_miss(bootstrapped, tmp_p
     assert len(tuned.verification.outcomes) == 9 and tuned.weights != options.weights
     assert dataclasses.asdict(tuned.weights) == tuned.tried[[s for _, s in tuned.tried].index(
         min(s for _, s in tuned.tried))][0]  # the best design tried is the one kept
+
+
+def test_the_swing_up_stays_within_a_short_track(tmp_path):
+    """Drawn rig 0's swing-up uses 270 mm of its 400 mm half-track (verification run); on a
+    200 mm half-track the law brakes before the end (within_track) and the cart stays inside,
+    in pendfmu's closed loop and in the independent reference simulator's."""
+    from control_loop import close_loop
+    from reference_rig import DEFAULTS
+
+    from pendfmu.control.report import write_loop_ssp
+    from pendfmu.control.verify import plan, simulate
+    from pendfmu.virtual_rig import draw_truth
+
+    truth = {**rig_defaults(), **draw_truth(0)[0]}
+    peaks = {}
+    for track in (0.4, 0.2):
+        the_design = design(truth, Options(task="swing-up", x_max=track))
+        ssp = write_loop_ssp(the_design, truth, tmp_path, built=False)
+        run = next(r for r in plan(the_design, truth, [], ssp, 8.0, both_compensations=False) if r.task == "swing-up")
+        peaks[track] = simulate(run).x_peak
+    assert peaks[0.4] > 0.2 >= peaks[0.2], peaks
+    reference = close_loop({k: v for k, v in truth.items() if k in DEFAULTS},
+                           Controller(design(truth, Options(task="swing-up", x_max=0.2))).step, T_s=T_S,
+                           duration=4.0, phi0=math.pi, dx=2 * math.pi / (1024 * truth["k_D"]))
+    assert np.max(np.abs(reference["x"])) <= 0.2

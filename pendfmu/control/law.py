@@ -18,6 +18,7 @@ from pendfmu.control.design import Design
 from pendfmu.control.plant import wrap
 
 SWING, BALANCE = 0, 1
+TRACK_USE = 0.9  # of the track's half-length x_max: where the swing-up's braking aims to stop
 
 
 def sgn(value: float) -> float:
@@ -87,7 +88,17 @@ class Controller:
         E = 0.5 * rig.J * (s[3] * s[3]) + rig.m * rig.g * rig.l * (math.cos(s[2]) - 1.0)
         pump = d.k_E * E / (rig.m * rig.g * rig.l) * sgn(s[3] * math.cos(s[2]))
         pump = max(-d.a_swing, min(d.a_swing, pump))
-        return pump - d.k_xs * (s[0] - x_ref) - d.k_vs * s[1]
+        return self.within_track(pump - d.k_xs * (s[0] - x_ref) - d.k_vs * s[1], s[0], s[1])
+
+    def within_track(self, a: float, x: float, v: float) -> float:
+        """The track limit: a cart heading for an end that could only just stop before
+        TRACK_USE of the half-length at the swing's acceleration limit brakes at that limit
+        (else `a`). The swing-up is what travels far; balance stays near x_ref."""
+        d = self.d
+        room = TRACK_USE * d.x_max - abs(x)
+        if x * v > 0.0 and v * v >= 2.0 * d.a_swing * room:
+            return -sgn(v) * d.a_swing
+        return a
 
     def compensation(self, force: float, v: float) -> float:
         """The cart's friction as identified: Coulomb against a sliding cart; a stuck one is

@@ -28,6 +28,7 @@
 #define SAMPLE_JITTER 0.01
 #define SUBSTEPS 10
 #define N_S 5
+#define TRACK_USE 0.9 /* of x_max: where the swing-up's braking aims to stop (law.py) */
 
 enum { SWING = 0, BALANCE = 1 };
 /* Store layout: first sample time, sample count, predicted state (5), mode, cancelled force. */
@@ -122,11 +123,19 @@ static double balance_force(const Instance *inst, const double *s, double x_ref,
     return R(eta) * R(k_F) * I;
 }
 
+/* The track limit (law.py's within_track): a cart heading for an end that could only just stop
+ * before TRACK_USE of x_max at the swing's acceleration limit brakes at that limit. */
+static double within_track(const Instance *inst, double a, double x, double v) {
+    const double room = TRACK_USE * R(x_max) - fabs(x);
+    if (x * v > 0.0 && v * v >= 2.0 * R(a_swing) * room) return -sgn(v) * R(a_swing);
+    return a;
+}
+
 static double swing_acceleration(const Instance *inst, const double *s, double x_ref) {
     const double E = 0.5 * R(J_p) * (s[3] * s[3]) + R(m_p) * R(g) * R(l) * (cos(s[2]) - 1.0);
     double pump = R(k_E) * E / (R(m_p) * R(g) * R(l)) * sgn(s[3] * cos(s[2]));
     pump = fmax(-R(a_swing), fmin(R(a_swing), pump));
-    return pump - R(k_xs) * (s[0] - x_ref) - R(k_vs) * s[1];
+    return within_track(inst, pump - R(k_xs) * (s[0] - x_ref) - R(k_vs) * s[1], s[0], s[1]);
 }
 
 static double compensation(const Instance *inst, double force, double v) {
