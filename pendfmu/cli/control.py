@@ -116,16 +116,17 @@ def run(args: argparse.Namespace) -> int:
         notes.append(f"weights tuned to the requirements by simulation: {len(tuning.tried)} designs tried")
     paths = write_outputs(the_design, values, notes, out)
     if not args.no_verify:
-        print(f"verifying in closed loop: the identified model and {len(replicates)} bootstrap replicates, "
-              f"{args.duration:g} s each", flush=True)
+        which = (f"the identified model and {len(replicates)} bootstrap replicates" if replicates else
+                 "the identified model only (the result holds no bootstrap replicates)")
+        print(f"verifying in closed loop: {which}, {args.duration:g} s each", flush=True)
         checked = verify(the_design, values, replicates, out / "ClosedLoop.ssp", args.duration, requirements,
                          workers=args.workers, scheduler=args.scheduler)
         paths += write_verification(checked, the_design, notes, out)
         for row in checked.summary():
-            rate = (f"; replicates meeting them: {row['replicates_meeting']} of {row['replicates']}"
-                    if row["replicates"] else "")
-            print(f"  {row['task']}, compensation {'on' if row['compensation'] else 'off'}: identified model "
-                  f"{'meets' if row['identified']['meets'] else 'MISSES'} the requirements{rate}")
+            print(f"  {row['task']}, compensation {'on' if row['compensation'] else 'off'}: the identified model "
+                  f"{'meets' if row['identified']['meets'] else 'MISSES'} the requirements")
+            if row["replicates"]:
+                print(f"    and {row['replicates_meeting']} of its {row['replicates']} bootstrap replicates")
     for path in dict.fromkeys(paths):  # report.md is written again with the verification
         print(path)
     return 0
