@@ -11,6 +11,13 @@ import pytest
 
 from pendfmu.fmubuild import build_all
 
+# `make test` runs two modules at once on two pytest-xdist workers: a fit that started a worker
+# process per core would put four busy processes on two cores, and the small fits most tests
+# make spent a third of their CPU time starting pools. Fits left to choose their worker count
+# (--workers 0) use one (pendfmu.fitting.pool.default_workers); the tests of the worker pools,
+# of Dask and of results that do not depend on the workers ask for theirs explicitly.
+os.environ.setdefault("PENDFMU_WORKERS", "1")
+
 
 FIRST = ("test_readme_runs.py", "test_fit_options.py", "test_realdata_fits.py", "test_laws.py", "test_reference_fmus.py",
          "test_examples_realdata.py", "test_foreign_fit.py", "test_identification.py", "test_friction_extras.py",

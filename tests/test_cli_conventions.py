@@ -5,6 +5,7 @@ you mean" for every name, a word on what a command skipped."""
 from __future__ import annotations
 
 import json
+import os
 import math
 import subprocess
 import sys
@@ -288,3 +289,29 @@ def test_simulate_reads_a_european_recording_like_the_plain_one(tmp_path, capsys
         assert "note: driven by I; not used: x_laser" in capsys.readouterr().out
         outputs[name] = (tmp_path / f"{name}-out.csv").read_text()
     assert outputs["plain"] == outputs["european"]
+
+
+@pytest.mark.parametrize("value", ["two", "0", "-3"])
+def test_a_worker_count_from_the_environment_that_is_no_count_is_exit_2(cart_recording, tmp_path, capsys,
+                                                                         monkeypatch, value):
+    """PENDFMU_WORKERS, the default for --workers on a shared machine, is checked like an option:
+    one line naming the variable and the value, exit 2, nothing written."""
+    from pendfmu.cli import main
+
+    monkeypatch.setenv("PENDFMU_WORKERS", value)
+    out = tmp_path / "fit.json"
+    code = main(["fit", "cart", str(cart_recording), "--out", str(out), "--uncertainty", "jacobian"])
+    error = capsys.readouterr().err.strip()
+    assert code == 2 and f"PENDFMU_WORKERS={value!r}" in error and "\n" not in error, error
+    assert not out.exists()
+
+
+def test_the_environments_worker_count_is_the_default_and_an_option_overrides_it(monkeypatch):
+    from pendfmu.fitting.optimizer import GlobalOptions, jacobian_threads
+    from pendfmu.fitting.pool import default_workers
+
+    monkeypatch.setenv("PENDFMU_WORKERS", "3")
+    assert default_workers() == 3
+    assert jacobian_threads(GlobalOptions(workers=1)) == 1
+    monkeypatch.delenv("PENDFMU_WORKERS")
+    assert default_workers() == (os.cpu_count() or 1)

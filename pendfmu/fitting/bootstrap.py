@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -36,7 +35,7 @@ from scipy.stats import t as student_t
 
 from pendfmu.fitting.cluster import dask_map
 from pendfmu.fitting.experiment import Experiment
-from pendfmu.fitting.pool import WorkerPool
+from pendfmu.fitting.pool import WorkerPool, default_workers
 from pendfmu.fitting.optimizer import local_search, snap_to_bounds
 from pendfmu.recording import quantize
 from pendfmu.fitting.residuals import FreeParameter, Residuals, physical
@@ -145,7 +144,7 @@ def parallel_map(function: Callable, jobs: Sequence, workers: int = 0, scheduler
 
         with Client(scheduler, set_as_default=False) as client:
             return dask_map(client, function, jobs, done, failed, incidents)
-    workers = min(workers or os.cpu_count() or 1, len(jobs))
+    workers = min(workers or default_workers(), len(jobs))
     if workers <= 1:
         return [_counted(function(job), done) for job in jobs]
     with WorkerPool(workers, function, failed=failed) as pool:

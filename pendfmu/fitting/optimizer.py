@@ -29,7 +29,7 @@ from scipy.optimize import differential_evolution, least_squares
 from pendfmu.errors import PendfmuError, UsageError
 from pendfmu.fitting.residuals import Residuals
 from pendfmu.fitting.cluster import ActorGroup
-from pendfmu.fitting.pool import WorkerPool
+from pendfmu.fitting.pool import WorkerPool, default_workers
 from pendfmu.fitting.workers import cost_and_failures, penalized, worker_cost, worker_start
 
 @dataclass
@@ -146,7 +146,7 @@ def global_search(coarse: Residuals, n: int, seed: int, options: GlobalOptions,
     """Differential evolution over the unit box; returns (best u, its cost, nfev, failures).
     `cache` maps candidates to costs already known (from a checkpoint) and collects new ones;
     `notes` receives what the user should know about the search (a lost Dask worker)."""
-    workers = options.workers or os.cpu_count() or 1
+    workers = options.workers or default_workers()
     evaluator = _Evaluator(coarse, workers, {} if cache is None else cache, options.scheduler)
     generation = [0]
 
@@ -250,12 +250,13 @@ def last_failure(residuals: Residuals, coarse: Residuals | None) -> str:
 
 
 def jacobian_threads(options: GlobalOptions) -> int:
-    """Threads for the local refinement's Jacobian: one per core, or --workers if fewer
-    (with --workers 1, one); one on a Dask cluster, whose cores are elsewhere."""
+    """Threads for the local refinement's Jacobian: one per core, or --workers (or
+    PENDFMU_WORKERS) if fewer (with --workers 1, one); one on a Dask cluster, whose cores are
+    elsewhere."""
     cores = os.cpu_count() or 1
     if options.scheduler:
         return 1
-    return max(1, min(options.workers or cores, cores))
+    return max(1, min(options.workers or default_workers(), cores))
 
 
 def _best_local(residuals: Residuals, starts: list[np.ndarray], messages: list[str], threads: int = 1):

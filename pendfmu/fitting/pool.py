@@ -33,7 +33,26 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 
-from pendfmu.errors import WorkersFailed
+from pendfmu.errors import UsageError, WorkersFailed
+
+WORKERS_VARIABLE = "PENDFMU_WORKERS"
+
+
+def default_workers() -> int:
+    """Worker processes when none are asked for (--workers 0): the PENDFMU_WORKERS environment
+    variable if set, else one per core. The variable is for a machine whose cores are shared: a
+    CI job, a batch of fits run side by side (the test suite runs two at once and sets it to 1,
+    so that two fits do not start four processes on two cores)."""
+    text = os.environ.get(WORKERS_VARIABLE, "").strip()
+    if not text:
+        return os.cpu_count() or 1
+    try:
+        count = int(text)
+    except ValueError:
+        count = 0
+    if count < 1:
+        raise UsageError(f"{WORKERS_VARIABLE}={text!r}: must be a whole number of worker processes, 1 or more")
+    return count
 
 TRIES = 2  # a job whose worker died is run once more; a second death gives it up
 ENDING_SIGNALS = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
