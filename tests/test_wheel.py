@@ -99,7 +99,9 @@ def test_wheel_installs_builds_and_simulates_like_the_checkout(installed, tmp_pa
     assert Path(where[0]).is_relative_to(installed.parent), f"imported {where[0]}, not the installed copy"
     assert where[1] == where[2] == __version__
 
-    built = _run([str(installed / "pendfmu"), "build"], cwd=work, env=env).stdout
+    # FMI 2.0 only: the GUIDs and the simulation asserted are its FMUs', and the FMI 3.0 build from
+    # the same package data is the same code path with the other version (half the compiling)
+    built = _run([str(installed / "pendfmu"), "build", "--fmi", "2"], cwd=work, env=env).stdout
     cache = tmp_path / "cache" / "pendfmu" / __version__ / "fmus"
     for name, component in ALL_COMPONENTS.items():
         assert f"{name}: {cache / (name + '.fmu')}" in built
