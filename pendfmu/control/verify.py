@@ -101,16 +101,20 @@ def judge(time: np.ndarray, x: np.ndarray, phi: np.ndarray, I_c: np.ndarray, dph
             "x_peak": float(np.max(np.abs(x)))}
 
 
-_REPLAYS: dict[tuple[str, int, float], object] = {}  # per process: the loop's replay, made once
+_REPLAYS: dict[tuple[str, str, int, float], object] = {}  # per process: the loop's replay, made once
 
 
 def _replay(run: Run):
-    """The closed loop's Replay for this process (the SSP unpacked and its FMUs loaded once)."""
+    """The closed loop's Replay for this process (the SSP unpacked and its FMUs loaded once),
+    known by the file's content: a ClosedLoop.ssp written again in place (another rig's wiring:
+    the back-drive connections are there for a back-drivable screw only) is another system."""
+    import hashlib
+
     from pendfmu.simulator.model import Model
     from pendfmu.simulator.replay import Drive, Replay
 
     samples = int(round(run.duration / run.T_s))
-    key = (run.ssp, samples, run.T_s)
+    key = (run.ssp, hashlib.sha256(Path(run.ssp).read_bytes()).hexdigest(), samples, run.T_s)
     if key not in _REPLAYS:
         times = run.T_s * np.arange(samples + 1)
         _REPLAYS[key] = Replay(Model.load(run.ssp), times, {"RigController.x_ref": Drive(np.zeros(samples + 1))})
