@@ -405,3 +405,23 @@ def test_the_exported_controller_meets_the_issues_criteria_on_a_fitted_rig(seed,
         if missed:
             failures[start] = figures
     assert not failures, failures
+
+
+def test_a_closed_loop_written_again_in_place_is_run_as_written(tmp_path):
+    """verify's per-process replay: ClosedLoop.ssp of a back-drivable rig (its back-drive wiring),
+    then the same path written for a self-locking rig; the second run must be the second
+    system's, as a fresh process runs it (it once ran with the first system's wiring)."""
+    from pendfmu.control import verify as verification
+    from pendfmu.control.report import write_loop_ssp
+    from pendfmu.virtual_rig import draw_truth
+
+    def run_of(seed: int):
+        truth = {**rig_defaults(), **draw_truth(seed)[0]}
+        the_design = design(truth, Options())
+        ssp = write_loop_ssp(the_design, truth, tmp_path, built=False)
+        return next(r for r in verification.plan(the_design, truth, [], ssp, 2.0, both_compensations=False))
+
+    verification.simulate(run_of(0))  # eta 0.59
+    after = verification.simulate(run_of(1)).signals  # eta 0.36, the same path
+    verification._REPLAYS.clear()
+    assert verification.simulate(run_of(1)).signals == after
