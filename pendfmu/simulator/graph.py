@@ -11,7 +11,7 @@ Pendulum.a); such a loop must be solved at every communication point.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 
 
@@ -103,7 +103,8 @@ def _cycle_order(group: list[str], edges: Mapping[str, set[str]]) -> list[str]:
         path.append(following[0])
 
 
-def tear_of(group: list[str], connections: Iterable[Wire]) -> tuple[tuple[str, str], list[str]] | None:
+def tear_of(group: list[str], connections: Iterable[Wire],
+            held: Collection[tuple[str, str]] = ()) -> tuple[tuple[str, str], list[str]] | None:
     """A single output of the coupled group whose connections, cut, leave the group's other
     internal connections without a cycle, and the members in the order they then step.
 
@@ -113,9 +114,25 @@ def tear_of(group: list[str], connections: Iterable[Wire]) -> tuple[tuple[str, s
     cart's acceleration that the pendulum takes. All internal connections count, not only
     the direct feedthroughs: over a step, the pendulum's end angle depends on the cart's
     acceleration during the step too. Candidates are tried in sorted order; None when no
-    single output will do (the master then iterates all internal signals)."""
+    single output will do (the master then iterates all internal signals, by plain
+    fixed-point iteration, which cycles at stick-slip events).
+
+    `held`: outputs whose consumers take their value at the step's start (a sampled
+    controller's), which puts no order on the members. Where no output tears all cycles,
+    those through held connections are left out: a controller closing the loop around a
+    back-drivable rig (Cart.x -> RigController -> CurrentLoop -> Cart) made a second cycle
+    that Cart.a does not cut, and the group was iterated. Tried second, so that a group torn
+    before keeps its tear and its results (the self-locking rig's loop, torn at I_mean)."""
     members = set(group)
     internal = [c for c in connections if c.source in members and c.target in members]
+    found = _single_tear(group, internal)
+    if found is None and held:
+        found = _single_tear(group, [c for c in internal if (c.source, c.output) not in held])
+    return found
+
+
+def _single_tear(group: list[str], internal: list[Wire]) -> tuple[tuple[str, str], list[str]] | None:
+    """The first output, in sorted order, whose cut leaves `internal` acyclic, and the order."""
     for candidate in sorted({(c.source, c.output) for c in internal}):
         edges = {name: set() for name in group}
         for c in internal:

@@ -124,18 +124,18 @@ class Master(CoupledSteps):
         self.loop_tolerance = loop_tolerance
         self.max_iterations = max_iterations
         self._check_connections()
-        self.order = stepping_order(self.types, self.connections)
-        # Coupled groups with a single-signal tear step in the tear's order (see tear_of).
-        self.tears: dict[tuple[str, ...], tuple[str, str]] = {}
-        for k, group in enumerate(self.order):
-            found = tear_of(group, self.connections) if len(group) > 1 else None
-            if found is not None:
-                self.order[k] = found[1]
-                self.tears[tuple(found[1])] = found[0]
         # Signals from discrete outputs (a sampled controller's) are held over a step, not
         # interpolated: they change only at events (discrete_outputs).
         self.held = {(c.source, c.output) for c in self.connections
                      if c.output in discrete_outputs(self.types[c.source], self.fmus.get(c.source))}
+        self.order = stepping_order(self.types, self.connections)
+        # Coupled groups with a single-signal tear step in the tear's order (see tear_of).
+        self.tears: dict[tuple[str, ...], tuple[str, str]] = {}
+        for k, group in enumerate(self.order):
+            found = tear_of(group, self.connections, self.held) if len(group) > 1 else None
+            if found is not None:
+                self.order[k] = found[1]
+                self.tears[tuple(found[1])] = found[0]
         self.loops = algebraic_loops(self.connections,
                                      {n: feedthrough_of(t, self.fmus.get(n)) for n, t in self.types.items()})
         self.iterations = 0  # loop iterations done in the last run, for diagnostics
