@@ -15,12 +15,12 @@ I_c [A] over the last 10 s, the largest |x|, and whether the issue's criteria ho
 test). Fits are cached in WORK/fit{N}.json. Costs, on the shared 2-core machine: a fit
 3-5 min; a 20 s closed-loop run ~30 s of CPU (the reference simulator at rtol 1e-6).
 
-Measured (2026-11-27, 20 s runs, last 10 s; rigs 0 and 1 designed from their fits, 2 and 7
-from the truth): with compensation, balance held on all four (0.32-0.47 steps, 0.5-2.3 mm,
-0.01-0.82 A); swing-up met every criterion on 0, 2, 7 (capture 4.5-5.4 s, 0.34-0.44 steps,
-0.1-1.6 mm, max |x| 267-273 mm) and missed on 1 by its angle (1.14 steps; 4.4 mm, 0.61 A,
-captured at 4.3 s: a stick-slip cycle of cart and pivot). Without compensation balance held
-the pendulum but not the criteria (1.9-3.9 steps, 45-95 mm) and swing-up never captured.
+Measured (2026-11-27, the ten default seeds, each from its fit, 20 s runs, last 10 s; about
+40 minutes on two cores): with compensation, balance met every criterion on all ten (0.02-0.46
+steps, 0.0-2.5 mm, 0.00-0.81 A); swing-up on seven (capture 4.2-5.5 s, max |x| 266-279 mm),
+missing on the self-locking rigs 1, 3 and 4 (RMS phi 1.14 and 1.13 steps, RMS I_c 1.08 A: a
+stick-slip cycle after the catch). Without compensation no run met them (balance 1.7-3.9 steps,
+41-109 mm; no swing-up caught). The README's "From fit to controller" has the table.
 """
 
 from __future__ import annotations
