@@ -3,7 +3,8 @@
     pendfmu control RESULT.json --out DIR [--task balance|swing-up]
         [--sample-time 1e-3] [--current-limit 5] [--track 0.4]
         [--weights x=0.05 phi=0.01 ...] [--no-compensation]
-        [--dx M] [--dphi RAD] [--duration 20] [--no-verify] [--workers N] [--scheduler ADDRESS]
+        [--dx M] [--dphi RAD] [--duration 20] [--no-verify]
+        [--workers N] [--scheduler ADDRESS]
         [--require capture=12 phi=1 x=0.01 I=1 track=0.4] [--tune]
 
 Writes DIR/RigController.fmu (FMI 2.0) and DIR/fmi3/RigController.fmu (FMI 3.0), Co-Simulation
