@@ -19,9 +19,10 @@ from pendfmu.fmubuild import build_all
 os.environ.setdefault("PENDFMU_WORKERS", "1")
 
 
-FIRST = ("test_readme_runs.py", "test_fit_options.py", "test_realdata_fits.py", "test_laws.py", "test_reference_fmus.py",
-         "test_examples_realdata.py", "test_foreign_fit.py", "test_identification.py", "test_friction_extras.py",
-         "test_check.py", "test_reference_mutants.py", "test_loop_events.py", "test_validation.py", "test_wheel.py")
+FIRST = ("test_readme_runs.py", "test_fit_options.py", "test_identification.py", "test_faults_workers.py",
+         "test_reference_fmus.py", "test_examples_realdata.py", "test_coverage_benchmark.py", "test_realdata_fits.py",
+         "test_wheel.py", "test_reference_mutants.py", "test_laws.py", "test_control.py", "test_validation.py",
+         "test_distributed.py", "test_report_browser.py", "test_check.py")
 """The longest modules, longest first (the sums of --durations=0 over a whole run), started
 first: `make test` runs the modules on two pytest-xdist workers (--dist loadfile: a module
 whole on one, so that its module-scoped fits run once; --no-loadscope-reorder: in this

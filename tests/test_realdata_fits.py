@@ -61,10 +61,15 @@ def fitted(tmp_path_factory):
     return get
 
 
-# EMPS's bootstrap (eight refits of the closed loop: 100 s on two busy cores) is make acceptance's;
-# its fit runs in make test through the example (test_examples_realdata.py, Jacobian intervals)
+# EMPS's bootstrap (eight refits of the closed loop: 100 s on two busy cores), MultiArm's (23 s) and
+# the carriage's Stribeck fit's (16 s) are make acceptance's; their data are fitted in make test
+# through the examples (test_examples_realdata.py) and, for MultiArm, its decay handling
+# (test_real_data_handling.py)
+LONG_FITS = {"EMPS", "MultiArm-Pendulum", "friction-identification"}
+
+
 @pytest.mark.parametrize("name, method", [pytest.param(name, "bootstrap", marks=pytest.mark.acceptance)
-                                          if name == "EMPS" else (name, "bootstrap") for name in TESTED]
+                                          if name in LONG_FITS else (name, "bootstrap") for name in TESTED]
                          + [(LINE, "jacobian")])
 def test_fit_writes_its_result_with_intervals_in_range(fitted, name, method):
     """Exit code 0 (or 3, warnings under --strict), never 1 (an internal failure) or 2,
