@@ -8,6 +8,9 @@ designed (verify.verify on all cores), as `pendfmu control` runs it. Prints the 
 seconds, the ratio to the 120 s budget and the replicates' success rate.
 
     python scripts/bench_verify.py [--work out/bench-verify] [--replicates 100] [--duration 20] [--workers 0]
+
+Measured (2026-11-27, this 2-core machine): 101 balance runs of 20 s in 6.0 s, 0.05 of the
+budget; the identified model and 97 of the 100 replicates met the requirements.
 """
 
 from __future__ import annotations
