@@ -327,7 +327,8 @@ def test_tuning_meets_a_requirement_the_default_weights_miss(bootstrapped, tmp_p
     import dataclasses
 
     from pendfmu.control.report import write_loop_ssp
-    from pendfmu.control.verify import Requirements, score, tune, verify
+    from pendfmu.control.tuning import score, tune
+    from pendfmu.control.verify import Requirements, verify
 
     _, document = bootstrapped
     values = {**rig_defaults(), **document["parameters"]}

@@ -22,7 +22,7 @@ each run judged by the issue's requirements. DIR/verification.json has every run
 DIR/verification.png the runs, and report.md the table with the replicates' success rate.
 --require sets the requirements (capture [s], phi [encoder steps], x [m] and I [A] RMS over
 the last 10 s, track [m]); --tune first tunes the LQR weights by simulation until every run
-(the identified model and each replicate) meets them (verify.tune), and designs with those.
+(the identified model and each replicate) meets them (control/tuning.py), and designs with those.
 """
 
 from __future__ import annotations
@@ -91,7 +91,8 @@ def run(args: argparse.Namespace) -> int:
     from pendfmu.control.design import design
     from pendfmu.control.fromfit import sidecar_resolutions
     from pendfmu.control.report import design_from, options_from, write_loop_ssp, write_outputs, write_verification
-    from pendfmu.control.verify import replicate_rigs, tune, verify
+    from pendfmu.control.tuning import tune
+    from pendfmu.control.verify import replicate_rigs, verify
     from pendfmu.errors import OptionError
     from pendfmu.fitting.result import read_result
 
