@@ -60,14 +60,7 @@ bool model_check_parameters(const Instance *inst, char *why, size_t size) {
         snprintf(why, size, "Controller: the sample time T_s = %g s must be > 0", R(T_s));
         return false;
     }
-    /* Samples must stay distinct instants: far apart compared with the tolerance within which
-     * the framework takes a sample time and a communication point as one. */
-    const double resolution = 1e3 * TIME_EVENT_TOLERANCE * fmax(1.0, fabs(inst->s.time));
-    if (R(T_s) < resolution) {
-        snprintf(why, size, "Controller: the sample time T_s = %g s is below %g s (samples closer than that cannot be "
-                 "told apart from rounding at t = %g s)", R(T_s), resolution, inst->s.time);
-        return false;
-    }
+    if (!sample_time_resolved(inst, "Controller", R(T_s), why, size)) return false;
     if (INT(n_d) < 1 || INT(n_d) > MAX_SAMPLES) {
         snprintf(why, size, "Controller: the derivative span n_d = %d samples must be in 1..%d", INT(n_d),
                  MAX_SAMPLES);

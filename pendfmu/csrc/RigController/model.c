@@ -158,12 +158,7 @@ bool model_check_parameters(const Instance *inst, char *why, size_t size) {
                  R(phi_quantum));
         return false;
     }
-    const double resolution = 1e3 * TIME_EVENT_TOLERANCE * fmax(1.0, fabs(inst->s.time));
-    if (R(T_s) < resolution) {
-        snprintf(why, size, "RigController: the sample time T_s = %g s is below %g s", R(T_s), resolution);
-        return false;
-    }
-    return true;
+    return sample_time_resolved(inst, "RigController", R(T_s), why, size);
 }
 
 void model_initial_states(Instance *inst) {

@@ -20,6 +20,7 @@
 #ifndef PENDFMU_FRAMEWORK_H
 #define PENDFMU_FRAMEWORK_H
 
+#include <math.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -331,6 +332,18 @@ double model_time_event_window(const Instance *inst);
  * the samples taken so far, k, in slot K): a communication point within JITTER T_s of a sample
  * is that sample's instant (logged time stamps jitter: EMPS's by 3e-8 s around whole
  * milliseconds, and a sample taken in the step before would read the previous point's inputs). */
+/* Whether a sampled model's T_s keeps its samples distinct instants: far apart compared with the
+ * tolerance within which the framework takes a sample time and a communication point as one
+ * (else `why` says so, naming `model`). The one home of that rule for every sampled model. */
+static inline bool sample_time_resolved(const Instance *inst, const char *model, double T_s, char *why,
+                                        size_t size) {
+    const double resolution = 1e3 * TIME_EVENT_TOLERANCE * fmax(1.0, fabs(inst->s.time));
+    if (T_s >= resolution) return true;
+    snprintf(why, size, "%s: the sample time T_s = %g s is below %g s (samples closer than that cannot be told "
+             "apart from rounding at t = %g s)", model, T_s, resolution, inst->s.time);
+    return false;
+}
+
 #define SAMPLED_EVERY_T_S(T0, K, JITTER)                                                        \
     double model_next_time_event(const Instance *inst) {                                        \
         return inst->s.store[T0] + inst->s.store[K] * R(T_s);                                   \
