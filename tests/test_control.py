@@ -307,13 +307,15 @@ def test_control_verifies_the_design_on_every_replicate(bootstrapped, tmp_path, 
     assert (out / "verification.png").stat().st_size > 10_000
 
 
-def test_the_replicates_rigs_reach_the_runs(bootstrapped):
+def test_the_replicates_rigs_reach_the_runs(bootstrapped, tmp_path):
     """plan(): each replicate's run carries that replicate's values (not the estimate's)."""
+    from pendfmu.control.report import write_loop_ssp
     from pendfmu.control.verify import plan
 
     _, document = bootstrapped
     values = {**rig_defaults(), **document["parameters"]}
-    runs = plan(design(values), values, document["replicates"], "loop.ssp", 3.0)
+    ssp = write_loop_ssp(design(values), values, tmp_path, built=False)
+    runs = plan(design(values), values, document["replicates"], ssp, 3.0)
     by_rig = {run.rig: run.values for run in runs if run.compensation}
     assert by_rig["identified"]["Cart.F_Kc"] == values["F_Kc"]
     for b, row in enumerate(document["replicates"]):
@@ -426,3 +428,19 @@ def test_a_closed_loop_written_again_in_place_is_run_as_written(tmp_path):
     after = verification.simulate(run_of(1)).signals  # eta 0.36, the same path
     verification._REPLAYS.clear()
     assert verification.simulate(run_of(1)).signals == after
+
+
+def test_a_runner_keeps_its_worker_processes_and_gives_what_one_process_gives(tmp_path):
+    """verify.runner over two batches (a tuning's designs) on two worker processes: the same
+    outcomes, in order, as the runs made here."""
+    from pendfmu.control.report import write_loop_ssp
+    from pendfmu.control.verify import plan, runner, simulate
+    from pendfmu.virtual_rig import draw_truth
+
+    truth = {**rig_defaults(), **draw_truth(1)[0]}
+    the_design = design(truth, Options(task="swing-up"))
+    runs = plan(the_design, truth, [], write_loop_ssp(the_design, truth, tmp_path, built=False), 1.0)
+    here = [simulate(run).signals for run in runs]
+    with runner(workers=2) as run:
+        batches = [[outcome.signals for outcome in run(runs)] for _ in range(2)]
+    assert len(runs) == 4 and batches == [here, here]

@@ -59,30 +59,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "meet the requirements (from --weights)")
 
 
-REQUIREMENT_NAMES = {"capture": "capture", "phi": "phi_steps", "x": "x_rms", "I": "I_rms", "track": "x_peak"}
-
-
-def requirements_from(items: list[str]):
-    """Requirements from NAME=VALUE words (--require x=0.005 I=0.5)."""
-    from pendfmu.control.verify import Requirements
-    from pendfmu.errors import OptionError
-
-    values = {}
-    for item in items:
-        name, _, text = item.partition("=")
-        if name not in REQUIREMENT_NAMES:
-            raise OptionError("require", f"{item!r}: the name must be one of {', '.join(REQUIREMENT_NAMES)} "
-                                         f"(NAME=VALUE)")
-        try:
-            value = float(text)
-        except ValueError:
-            raise OptionError("require", f"{item!r}: {text!r} is not a number") from None
-        if not (value > 0 and value < float("inf")):
-            raise OptionError("require", f"{item!r}: must be a positive number")
-        values[REQUIREMENT_NAMES[name]] = value
-    return Requirements(**values)
-
-
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
@@ -90,7 +66,8 @@ def run(args: argparse.Namespace) -> int:
 
     from pendfmu.control.design import design
     from pendfmu.control.fromfit import sidecar_resolutions
-    from pendfmu.control.report import design_from, options_from, write_loop_ssp, write_outputs, write_verification
+    from pendfmu.control.report import (design_from, options_from, requirements_from, write_loop_ssp, write_outputs,
+                                        write_verification)
     from pendfmu.control.tuning import tune
     from pendfmu.control.verify import replicate_rigs, verify
     from pendfmu.errors import OptionError

@@ -73,8 +73,9 @@ class Design:
     the innovations of x and phi; the swing-up's energy gain k_E [m/s^2], its acceleration
     limit a_swing and centring gains k_xs [1/s^2], k_vs [1/s]; phi_catch [rad], where balance
     takes over; v_stuck [m/s], below which the cart counts as stuck, and F_ramp [N], the wanted
-    force over which the breakaway compensation builds up; x_quantum [m] and phi_quantum [rad],
-    the steps the inputs are rounded to (0: none).
+    force over which the breakaway compensation builds up; dx [m] and dphi [rad], the encoders'
+    steps the estimator assumes; x_quantum [m] and phi_quantum [rad], the steps the inputs are
+    rounded to (0: none).
     """
 
     rig: RigModel
@@ -93,6 +94,8 @@ class Design:
     phi_catch: float
     v_stuck: float
     F_ramp: float
+    dx: float  # the encoders' steps the estimator was designed for [m, rad] (verify.py emulates them)
+    dphi: float
     # the inputs rounded to these steps before use (0: as given): the encoders, emulated when
     # the loop is closed on a continuous model (verify.py); the rig's readings are counts already
     x_quantum: float = 0.0
@@ -147,4 +150,4 @@ def design(parameters: Mapping[str, float], options: Options = Options()) -> Des
                   swing_up=options.task == "swing-up", compensation=options.compensation, axis=axis,
                   K=tuple(float(k) for k in K), L=tuple((float(r[0]), float(r[1])) for r in L),
                   k_E=20.0, a_swing=min(6.0, 0.5 * a_drive), k_xs=8.0, k_vs=6.0, phi_catch=0.3,
-                  v_stuck=5e-3, F_ramp=3.0)
+                  v_stuck=5e-3, F_ramp=3.0, dx=dx, dphi=dphi)

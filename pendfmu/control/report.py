@@ -27,20 +27,38 @@ def _positive(option: str, value: float | None) -> None:
         raise OptionError(option, f"{value} must be a positive number")
 
 
-def weights_from(items: list[str]) -> Weights:
-    """Weights from NAME=SCALE words (--weights x=0.05 phi=0.01)."""
+def named_values(option: str, items: list[str], names, word: str) -> dict[str, float]:
+    """Positive numbers from NAME=VALUE words, each name one of `names` (one line per fault)."""
     values = {}
-    names = Weights.__dataclass_fields__
     for item in items:
         name, _, text = item.partition("=")
         if name not in names:
-            raise OptionError("weights", f"{item!r}: the name must be one of {', '.join(names)} (NAME=SCALE)")
+            raise OptionError(option, f"{item!r}: the name must be one of {', '.join(names)} (NAME={word.upper()})")
         try:
-            values[name] = float(text)
+            value = float(text)
         except ValueError:
-            raise OptionError("weights", f"{item!r}: the scale {text!r} is not a number") from None
-        _positive("weights", values[name])
-    return Weights(**values)
+            raise OptionError(option, f"{item!r}: the {word} {text!r} is not a number") from None
+        if not (0.0 < value < math.inf):
+            raise OptionError(option, f"{item!r}: must be a positive number")
+        values[name] = value
+    return values
+
+
+def weights_from(items: list[str]) -> Weights:
+    """Weights from NAME=SCALE words (--weights x=0.05 phi=0.01)."""
+    return Weights(**named_values("weights", items, Weights.__dataclass_fields__, "scale"))
+
+
+# --require's names -> verify.Requirements' fields
+REQUIREMENT_NAMES = {"capture": "capture", "phi": "phi_steps", "x": "x_rms", "I": "I_rms", "track": "x_peak"}
+
+
+def requirements_from(items: list[str]):
+    """Requirements from NAME=VALUE words (--require x=0.005 I=0.5)."""
+    from pendfmu.control.verify import Requirements
+
+    given = named_values("require", items, REQUIREMENT_NAMES, "value")
+    return Requirements(**{REQUIREMENT_NAMES[name]: value for name, value in given.items()})
 
 
 def options_from(args, resolutions: dict[str, float]) -> Options:
@@ -149,15 +167,18 @@ def write_outputs(the_design: Design, values: dict[str, float], notes: list[str]
 def verification_text(checked) -> str:
     """report.md's section on the closed-loop verification (verify.py): a row per task and
     compensation, the identified model's figures and the replicates' success rate and worst."""
+    from pendfmu.control.verify import WINDOW
+
     req = checked.requirements
     track = req.x_peak if req.x_peak is not None else checked.track
+    rows = checked.summary()
     lines = ["## Verification in closed loop", "",
-             f"Requirements: capture within {req.capture:g} s; over the last {WINDOW_TEXT}: RMS phi <= "
+             f"Requirements: capture within {req.capture:g} s; over the last {WINDOW:g} s (half the run if shorter): RMS phi <= "
              f"{req.phi_steps:g} encoder step(s), RMS x <= {1000 * req.x_rms:g} mm, RMS I_c <= {req.I_rms:g} A; "
              f"|x| <= {1000 * track:g} mm throughout. {len(checked.outcomes)} runs in {checked.seconds:.1f} s.", "",
              "| task | compensation | rig | capture [s] | RMS phi [steps] | RMS x [mm] | RMS I_c [A] | max abs x [mm] "
              "| meets |", "|---|---|---|---|---|---|---|---|---|"]
-    for row in checked.summary():
+    for row in rows:
         on = "on" if row["compensation"] else "off"
         lines.append(_figures_row(row["task"], on, "identified", row["identified"],
                                   "yes" if row["identified"]["meets"] else "NO"))
@@ -165,14 +186,11 @@ def verification_text(checked) -> str:
             lines.append(_figures_row(row["task"], on, f"worst of {row['replicates']} replicates",
                                       row["worst_replicate"],
                                       f"{row['replicates_meeting']} of {row['replicates']}"))
-    if not any(row["replicates"] for row in checked.summary()):
+    if not any(row["replicates"] for row in rows):
         lines += ["", "The result holds no bootstrap replicates (its intervals are Jacobian or sandwich ones, or "
                       "it was written before pendfmu kept them): verified on the identified model only."]
     lines += ["", "![closed loop](verification.png)", ""]
     return "\n".join(lines)
-
-
-WINDOW_TEXT = "10 s (half the run if shorter)"
 
 
 def _figures_row(task: str, compensation: str, rig: str, figures: dict, meets: str) -> str:

@@ -12,7 +12,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from pendfmu.control.verify import Outcome, Requirements, Verification, parallel_runs, plan, shortfall
+from pendfmu.control.verify import Outcome, Requirements, Verification, plan, runner, shortfall
 
 TUNED = ("x", "phi", "v", "w", "a")  # the LQR weights a tuning moves (design.Weights)
 TUNING_BUDGET = 40  # designs tried at most
@@ -48,20 +48,26 @@ def tune(values: Mapping[str, float], options, replicates: Sequence[Mapping[str,
     of the factor) once no move helps. It stops when every run meets the requirements, when
     the steps are below a tenth of a doubling, or after `budget` designs. The runs are
     deterministic, so the same request tunes to the same weights."""
+    with runner(workers, scheduler) as run:
+        return _search(values, options, replicates, ssp, duration, requirements, run, budget, say)
+
+
+def _search(values, options, replicates, ssp, duration, requirements, run, budget, say) -> Tuning:
+    """tune's search, its runs made by `run` (verify.runner)."""
     import dataclasses
     import time
 
     from pendfmu.control.design import design
 
-    def judged(weights) -> tuple[tuple[int, float], list[Outcome], float]:
-        start = time.perf_counter()
+    start = time.perf_counter()
+
+    def judged(weights) -> tuple[tuple[float, float], list[Outcome]]:
         the_design = design(values, dataclasses.replace(options, weights=weights))
-        runs = plan(the_design, values, replicates, ssp, duration, both_compensations=False)
-        outcomes = parallel_runs(runs, workers, scheduler)
-        return score(outcomes, requirements, the_design.x_max), outcomes, time.perf_counter() - start
+        outcomes = run(plan(the_design, values, replicates, ssp, duration, both_compensations=False))
+        return score(outcomes, requirements, the_design.x_max), outcomes
 
     best = options.weights
-    best_score, best_outcomes, seconds = judged(best)
+    best_score, best_outcomes = judged(best)
     tried = [(dataclasses.asdict(best), best_score)]
     say(f"tuning: start {_weights_text(best)}: {_score_text(best_score)}")
     factor = 2.0
@@ -72,7 +78,7 @@ def tune(values: Mapping[str, float], options, replicates: Sequence[Mapping[str,
                 moved = False
                 while len(tried) < budget and best_score[0] > 0:  # on along a move while it helps
                     candidate = dataclasses.replace(best, **{name: getattr(best, name) * scale})
-                    found, outcomes, seconds = judged(candidate)
+                    found, outcomes = judged(candidate)
                     tried.append((dataclasses.asdict(candidate), found))
                     if not found < best_score:
                         break
@@ -85,7 +91,8 @@ def tune(values: Mapping[str, float], options, replicates: Sequence[Mapping[str,
                 break
             factor = math.sqrt(factor)
     the_design = design(values, dataclasses.replace(options, weights=best))
-    return Tuning(best, Verification(requirements, the_design.x_max, best_outcomes, seconds), tried)
+    return Tuning(best, Verification(requirements, the_design.x_max, best_outcomes, time.perf_counter() - start),
+                  tried)
 
 
 def _score_text(found: tuple[float, float]) -> str:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -58,6 +59,7 @@ class Run:
     duration: float
     T_s: float
     ssp: str
+    ssp_digest: str  # the file's content: a ClosedLoop.ssp written again in place is another system
     dphi: float
 
 
@@ -117,15 +119,14 @@ _REPLAYS: dict[tuple[str, str, int, float], object] = {}  # per process: the loo
 
 def _replay(run: Run):
     """The closed loop's Replay for this process (the SSP unpacked and its FMUs loaded once),
-    known by the file's content: a ClosedLoop.ssp written again in place (another rig's wiring:
-    the back-drive connections are there for a back-drivable screw only) is another system."""
-    import hashlib
-
+    known by the file's content (Run.ssp_digest): a ClosedLoop.ssp written again in place
+    (another rig's wiring: the back-drive connections are there for a back-drivable screw
+    only) is another system."""
     from pendfmu.simulator.model import Model
     from pendfmu.simulator.replay import Drive, Replay
 
     samples = int(round(run.duration / run.T_s))
-    key = (run.ssp, hashlib.sha256(Path(run.ssp).read_bytes()).hexdigest(), samples, run.T_s)
+    key = (run.ssp, run.ssp_digest, samples, run.T_s)
     if key not in _REPLAYS:
         times = run.T_s * np.arange(samples + 1)
         _REPLAYS[key] = Replay(Model.load(run.ssp), times, {"RigController.x_ref": Drive(np.zeros(samples + 1))})
@@ -175,15 +176,18 @@ def system_values(values: Mapping[str, float], rig: Mapping[str, float]) -> dict
 def plan(design, values: Mapping[str, float], replicates: Sequence[Mapping[str, float]], ssp: Path,
          duration: float, both_compensations: bool = True) -> list[Run]:
     """Every run: the identified rig and each replicate; balance, and swing-up if the design
-    swings up; with the design's compensation and, where asked, with it switched. The design
+    swings up; with the design's compensation and, where asked, with it switched; the encoders
+    those the design was made for (Design.dx, dphi: the recordings' sidecars). The design
     reaches the controller as parameter values, so any ClosedLoop system will do, whatever
     design its RigController FMU was built with (a tuning tries designs without compiling)."""
+    import hashlib
+
     from pendfmu.control.export import fmu_parameters
 
     tasks = ["balance"] + (["swing-up"] if design.swing_up else [])
     compensations = [design.compensation] + ([not design.compensation] if both_compensations else [])
-    dx = 2 * math.pi / (1024 * values["k_D"]) if not design.x_quantum else design.x_quantum
-    dphi = design.phi_quantum or 2 * math.pi / 1024
+    dx, dphi = design.x_quantum or design.dx, design.phi_quantum or design.dphi
+    digest = hashlib.sha256(Path(ssp).read_bytes()).hexdigest()
     rigs = [("identified", dict(values))] + [(str(b), dict(r)) for b, r in enumerate(replicates)]
     controller = {f"RigController.{name}": float(value) for name, value in fmu_parameters(design).items()}
     runs = []
@@ -195,7 +199,7 @@ def plan(design, values: Mapping[str, float], replicates: Sequence[Mapping[str, 
                               "RigController.swing_up": float(task == "swing-up"),
                               "RigController.compensation": float(compensation),
                               "RigController.x_quantum": dx, "RigController.phi_quantum": dphi})
-                runs.append(Run(name, task, compensation, given, duration, design.T_s, str(ssp), dphi))
+                runs.append(Run(name, task, compensation, given, duration, design.T_s, str(ssp), digest, dphi))
     return runs
 
 
@@ -252,6 +256,20 @@ def parallel_runs(runs: Sequence[Run], workers: int = 0, scheduler: str | None =
     from pendfmu.fitting.bootstrap import parallel_map
 
     return parallel_map(simulate, runs, workers, scheduler, done, failed_run)
+
+
+@contextmanager
+def runner(workers: int = 0, scheduler: str | None = None):
+    """parallel_runs for many batches (a tuning's designs): the local worker processes start
+    once and keep their loaded closed loop (_replay) from one batch to the next."""
+    from pendfmu.fitting.pool import WorkerPool, default_workers
+
+    workers = workers or default_workers()
+    if scheduler or workers <= 1:
+        yield lambda runs: parallel_runs(runs, workers, scheduler)
+        return
+    with WorkerPool(workers, simulate, failed=failed_run) as pool:
+        yield lambda runs: list(pool.map(runs))
 
 
 def verify(design, values: Mapping[str, float], replicates: Sequence[Mapping[str, float]], ssp: Path,
