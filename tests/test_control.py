@@ -444,3 +444,17 @@ def test_a_runner_keeps_its_worker_processes_and_gives_what_one_process_gives(tm
     with runner(workers=2) as run:
         batches = [[outcome.signals for outcome in run(runs)] for _ in range(2)]
     assert len(runs) == 4 and batches == [here, here]
+
+
+def test_the_verification_reads_the_encoders_the_design_was_made_for(tmp_path):
+    """A rig whose sidecars give a 4096-count pendulum encoder and a 20 um cart encoder: the
+    runs round the controller's inputs to those steps and count phi in them (verification once
+    assumed MODEL.md's 1024 counts whatever the recordings said)."""
+    from pendfmu.control.report import write_loop_ssp
+    from pendfmu.control.verify import plan
+
+    values = rig_defaults()
+    the_design = design(values, Options(dx=2e-5, dphi=2 * math.pi / 4096))
+    runs = plan(the_design, values, [], write_loop_ssp(the_design, values, tmp_path, built=False), 2.0)
+    assert {run.values["RigController.x_quantum"] for run in runs} == {2e-5}
+    assert {run.values["RigController.phi_quantum"] for run in runs} == {run.dphi for run in runs} == {2 * math.pi / 4096}
