@@ -24,11 +24,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from processes import WAIT, busy_workers
 from conftest import result_without_time
 from pendfmu.cli import main
 
 SEARCH = ["--seed", "8", "--generations", "12", "--replicates", "8"]
-WAIT = 150  # seconds a disturbed fit may take before it is taken for hung (the code before issue 28 hung)
 
 
 def fit_command(recording: Path, out: Path, *more: str) -> list[str]:
@@ -90,21 +90,6 @@ def finish(process: subprocess.Popen) -> tuple[str, str]:
         pytest.fail(f"the fit did not end within {WAIT} s")
 
 
-def children(pid: int) -> list[int]:
-    try:
-        return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
-    except OSError:
-        return []
-
-
-def cpu_seconds(pid: int) -> float:
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    except OSError:
-        return 0.0
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 @contextmanager
 def within(seconds: float):
     """Fail a block that takes longer (the code before issue 28 waited for a frozen worker forever)."""
@@ -118,21 +103,6 @@ def within(seconds: float):
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
-
-
-def busy_workers(process: subprocess.Popen, cpu: float = 0.1) -> list[int]:
-    """The global search's two worker processes (the fit's first) once each has computed for
-    `cpu` s; fails if the fit ends first."""
-    deadline = time.monotonic() + WAIT
-    first = None
-    while time.monotonic() < deadline and process.poll() is None:
-        workers = children(process.pid)
-        first = first or (workers if len(workers) == 2 else None)
-        if first and all(cpu_seconds(w) >= cpu for w in first):
-            assert children(process.pid) == first, "the search ended before its workers were seen busy"
-            return first
-        time.sleep(0.01)
-    pytest.fail(f"the fit ended (or took {WAIT} s) before its workers ran: {process.communicate()}")
 
 
 def test_a_worker_killed_with_kill_9_is_replaced_and_the_fit_ends_as_undisturbed(cart_recording, tmp_path,
@@ -232,7 +202,7 @@ def test_sigterm_writes_a_checkpoint_and_resume_ends_as_undisturbed(cart_recordi
     out = tmp_path / "fit.json"
     command = fit_command(cart_recording, out)
     process = start_fit(command + ["--workers", "2"])
-    busy_workers(process)
+    busy_workers(process, cpu=0.3)  # past the workers' start-up (about 0.1 s): some costs are in
     process.send_signal(signal.SIGTERM)
     stdout, stderr = finish(process)
     assert process.returncode == 130, stderr

@@ -9,10 +9,10 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 
 from conftest import CART_TRUTH, result_without_time
+from processes import busy_workers
 
 from pendfmu.cli import main
 from pendfmu.virtual_rig import Trial, steps, write_experiments
@@ -62,8 +62,8 @@ def test_a_real_sigint_stops_worker_processes_and_writes_the_checkpoint(tmp_path
     process = subprocess.Popen([sys.executable, "-m", "pendfmu", "fit", "cart", str(tmp_path / "long.csv"),
                                 "--out", str(out), "--workers", "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    time.sleep(4.0)  # start-up, then well inside the global search (which takes much longer)
-    process.send_signal(signal.SIGINT)
+    busy_workers(process)  # inside the global search, both workers computing: not after a fixed sleep, which a
+    process.send_signal(signal.SIGINT)  # first start on a loaded machine outlasted (interrupted before the fit began)
     stdout, stderr = process.communicate(timeout=120)
     assert process.returncode == 130, stderr
     assert "interrupted" in stdout and (tmp_path / "fit.json.checkpoint").exists()
