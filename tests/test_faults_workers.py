@@ -256,7 +256,8 @@ def cluster():
 
 @contextmanager
 def frozen_worker(cluster):
-    """One of the cluster's worker processes stopped (SIGSTOP) for the block, then continued."""
+    """One of the cluster's worker processes stopped (SIGSTOP) for the block, then continued
+    (it goes on with what it was given: hooked_workers starts from fresh workers)."""
     from distributed import Client
 
     with Client(cluster.scheduler_address, set_as_default=False) as client:
@@ -352,6 +353,8 @@ def hooked_workers(cluster, owner: type, name: str, hook):
             setattr(owner, name, self.original)
 
     with mortal_workers(cluster) as client:
+        with within(60):  # fresh workers: a worker continued after frozen_worker goes on with an
+            client.restart()  # earlier fit's actor, which once ran under the hook and killed its worker
         client.register_plugin(Hooked(), name="hooked")
         try:
             yield client

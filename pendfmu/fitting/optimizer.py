@@ -98,7 +98,11 @@ class _Evaluator:
     def __call__(self, function: Callable, candidates) -> list[float]:
         candidates = [np.asarray(c, dtype=float) for c in candidates]
         keys = [c.tobytes() for c in candidates]
-        missing = [k for k, key in enumerate(keys) if key not in self.cache]
+        first = {}  # a candidate drawn twice in one batch is simulated once
+        for k, key in enumerate(keys):
+            if key not in self.cache:
+                first.setdefault(key, k)
+        missing = list(first.values())
         # Each cost is remembered as soon as it is known, so an interrupt loses none.
         for k, (cost, failed, reason) in zip(missing, self._costs([candidates[k] for k in missing])):
             self.cache[keys[k]] = cost
