@@ -28,9 +28,30 @@ __all__ = ["write_report", "write_comparison", "write_laws_report"]
 
 
 def write_report(result: FitResult, directory: str | Path) -> Path:
-    """Write the report of `result` into `directory` (created if needed); returns the
-    path of its index.html. Everything is drawn first, into a temporary folder: a report
-    that fails to render leaves the folder's earlier report as it was."""
+    """Write the HTML report of a fit into a folder.
+
+    Everything is drawn first, into a temporary folder: a report that fails to render
+    leaves the folder's earlier report as it was. The earlier report's files are then
+    replaced; the user's own files in the folder are left alone.
+
+    Parameters
+    ----------
+    result : FitResult
+        The fit to report (from :func:`pendfmu.fit` or :func:`pendfmu.read_result`).
+    directory : str or Path
+        The report's folder, created if needed; it may hold an earlier report.
+
+    Returns
+    -------
+    Path
+        The report's ``index.html`` in `directory`.
+
+    Raises
+    ------
+    UsageError
+        `directory` is a file, or holds an ``index.html`` (or a figure's name) that no
+        pendfmu report wrote: nothing is changed.
+    """
     import tempfile
 
     from pendfmu.report.figures import write_diagnostics_figures, write_friction_figures, write_joint_figures
@@ -48,16 +69,52 @@ def write_report(result: FitResult, directory: str | Path) -> Path:
 
 def write_comparison(first: FitResult, second: FitResult, directory: str | Path,
                      names: tuple[str, str] = ("A", "B"), sources: tuple[str, str] | None = None) -> Path:
-    """Write a report comparing two results into `directory` (`names` label them, `sources`
-    are their files, if any); returns its index.html."""
+    """Write a page comparing two fits of the same system side by side.
+
+    Parameters
+    ----------
+    first, second : FitResult
+        The two fits compared.
+    directory : str or Path
+        The page's folder, created if needed (an earlier report there is replaced, as
+        :func:`write_report` does).
+    names : tuple of (str, str), optional
+        The labels of the two fits in the page's tables.
+    sources : tuple of (str, str), optional
+        The files the fits were read from, shown with them; None when they were not read
+        from files.
+
+    Returns
+    -------
+    Path
+        The page's ``index.html`` in `directory`.
+
+    Raises
+    ------
+    UsageError
+        `directory` is a file, or holds an ``index.html`` no pendfmu report wrote.
+    """
     from pendfmu.report.compare import comparison_page
 
     return _replace(Path(directory), comparison_page(first, second, names, sources), {})
 
 
 def write_laws_report(comparison, directory: str | Path) -> Path:
-    """Write the page of a friction-law comparison (pendfmu.fitting.laws) into `directory`;
-    returns its index.html."""
+    """Write the page of a friction-law comparison: the candidate laws ranked, with the
+    recommended one.
+
+    Parameters
+    ----------
+    comparison : LawComparison
+        What :func:`pendfmu.compare_laws` returns (pendfmu.fitting.laws).
+    directory : str or Path
+        The page's folder, as for :func:`write_comparison`.
+
+    Returns
+    -------
+    Path
+        The page's ``index.html`` in `directory`.
+    """
     from pendfmu.report.laws import laws_page
 
     return _replace(Path(directory), laws_page(comparison), {})
