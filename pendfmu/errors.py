@@ -75,9 +75,27 @@ class Suspicious(PendfmuError):
 class FMUError(PendfmuError, RuntimeError):
     """An FMU call failed (fmi2Error or worse): the message says what the FMU logged.
 
-    Attributes, where known: `instance` (the component's name), `function` (the FMI call),
-    `time` (the communication point), `messages` (what the FMU logged, newest last),
-    `status` (what the call returned: 2 Discard, 3 Error, 4 Fatal)."""
+    A RuntimeError and exit code 4 (the model failed, not the input). Each attribute is
+    None (or empty) where it is not known.
+
+    Parameters
+    ----------
+    message : str
+        The failure in words.
+
+    Attributes
+    ----------
+    instance : str or None
+        The instance's (the component's) name.
+    function : str or None
+        The FMI function that failed, e.g. "fmi2DoStep".
+    time : float or None
+        The communication point of the call [s].
+    messages : list of str
+        What the FMU logged, newest last.
+    status : int or None
+        What the call returned: 2 Discard, 3 Error, 4 Fatal.
+    """
 
     def __init__(self, message: str, instance: str | None = None, function: str | None = None,
                  time: float | None = None, messages: Sequence[str] = (), status: int | None = None):
@@ -90,8 +108,15 @@ class FMUError(PendfmuError, RuntimeError):
 
     def reason(self) -> str:
         """The failure in words, never empty: the message, else what is known of where it
-        happened (instance, function, time, the FMU's last words). Why: a fit reports the
-        last failed simulation, and "(last: )" told the user nothing."""
+        happened (instance, function, time, the FMU's last words).
+
+        Why: a fit reports the last failed simulation, and "(last: )" told the user nothing.
+
+        Returns
+        -------
+        str
+            One line.
+        """
         said = str(self)
         if said:
             return said

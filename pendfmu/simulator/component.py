@@ -33,7 +33,9 @@ class _CArrays:
 
 
 class ParameterError(BadInput):
-    """A parameter name that the component does not have."""
+    """A parameter name that the component does not have, or a value or use its FMU cannot
+    take (a fraction for an Integer, input derivatives for an FMU that cannot interpolate
+    inputs). A BadInput: the user's input is wrong, exit code 2."""
 
 
 def discrete_outputs(name: str, fmu: str | Path | None = None) -> set[str]:
@@ -80,9 +82,72 @@ def pooled_instance(key: tuple[str, str], pool: InstancePool, make: Callable[[],
 
 class ComponentFMU:
     """A Co-Simulation instance of CurrentLoop, Cart or Pendulum (or of any FMI 2.0 CS FMU),
-    on the checked binding (fmi.py): `slave` is its instance, every call of which raises
-    FMUError with what the FMU logged.
+    addressed by variable names.
 
+    It stands on the checked binding (fmi.py): `slave` is its instance, every call of which
+    raises FMUError with what the FMU logged. Parameter names are checked against the
+    variable table before they reach the FMU, and only what the FMU declares it can do
+    (interpolated inputs, a varying step) is ever called (FMI 2.0, 4.3.1). The instance is
+    set up and initialized on construction, ready to step.
+
+    Parameters
+    ----------
+    name : str
+        A pendfmu component ("CurrentLoop", "Cart", "Pendulum", "Controller"), built from
+        source if needed; with `fmu`, the name the FMU is cached under.
+    parameters : mapping of str to float, optional
+        Parameter values set in initialization mode (SI units, as the variable table
+        declares them); the others keep the FMU's start values.
+    start_time : float, optional
+        The simulation's start time [s].
+    log_events : bool, optional
+        Whether the FMU logs its events too (to `messages`), not only its errors.
+    fmu : str or Path, optional
+        An FMI 2.0 Co-Simulation FMU file to run instead of the built component (an FMU
+        from an SSP archive, an exported one, one pendfmu did not make).
+    instance : str, optional
+        The instance's name, as the FMU and error messages see it; `name` by default.
+    copy : int, optional
+        0 for the shared unpacked copy; a number > 0 loads another copy of the binary, with
+        globals of its own, so instances in different threads share nothing.
+
+    Attributes
+    ----------
+    name : str
+        The instance's name.
+    component : Component or None
+        The pendfmu component's variable table (pendfmu.components); None for an FMU
+        pendfmu did not make.
+    vr : dict of str to int
+        Each variable's value reference, by name.
+    types : dict of str to str
+        Each variable's type by name: "Real", "Integer" or "Boolean".
+    parameter_names : list of str
+        The names `set_parameters` accepts: the component's parameters, or every variable
+        of causality "parameter" of another FMU.
+    can_interpolate_inputs : bool
+        The FMU's canInterpolateInputs: whether `step` may be given input derivatives.
+    can_vary_step : bool
+        The FMU's canHandleVariableCommunicationStepSize.
+    resets : bool
+        True until fmi2Reset has failed once; then `restart` makes a new instance instead.
+    slave : CheckedFMU or None
+        The binding's instance (fmi.py); None once freed.
+    unit : Unit
+        The instance as the native master loop calls it (native.py).
+    time : float
+        The current communication point [s].
+
+    Raises
+    ------
+    ParameterError
+        The FMU is Model Exchange only, not FMI 2.0, or `name` is not a pendfmu component
+        (without `fmu`), or a parameter is unknown.
+    FMUError
+        The FMU refused to instantiate or initialize.
+
+    Examples
+    --------
     >>> cart = ComponentFMU("Cart", {"m_p": 0.0})
     >>> cart.step(1e-3, inputs={"I": 2.0})
     >>> cart.get("x", "v")
@@ -122,7 +187,8 @@ class ComponentFMU:
 
     @property
     def messages(self) -> list[str]:
-        """What the FMU logged (the current instance's)."""
+        """What the FMU logged, oldest first (the current instance's; a restart that makes a
+        new instance starts a new list)."""
         return self.slave.messages
 
     def _refs(self, names: Sequence[str]) -> list[int]:
@@ -146,8 +212,18 @@ class ComponentFMU:
 
     def restart(self, parameters: Mapping[str, float], start_time: float = 0.0) -> None:
         """Reset and initialize again with new parameter values (cheaper than a new instance).
+
         An FMU whose fmi2Reset fails (not every exporter implements it) is freed and
-        instantiated anew, now and for every later run."""
+        instantiated anew, now and for every later run.
+
+        Parameters
+        ----------
+        parameters : mapping of str to float
+            Parameter values set in initialization mode; the others go back to the FMU's
+            start values.
+        start_time : float, optional
+            The new start time [s].
+        """
         if self.resets:
             try:
                 self.slave.call("fmi2Reset", self.slave.component)
@@ -161,6 +237,19 @@ class ComponentFMU:
     # -- values
 
     def set_parameters(self, parameters: Mapping[str, float]) -> None:
+        """Set parameter values, refusing a name that is not a parameter (a typo would
+        otherwise set nothing the user meant, or an input).
+
+        Parameters
+        ----------
+        parameters : mapping of str to float
+            Values by parameter name (SI units, as the variable table declares them).
+
+        Raises
+        ------
+        ParameterError
+            A name is not one of `parameter_names`.
+        """
         known = self.parameter_names
         unknown = [n for n in parameters if n not in known]
         if unknown:
@@ -169,6 +258,19 @@ class ComponentFMU:
         self.set(**parameters)
 
     def set(self, **values: float) -> None:
+        """Set variables by name, whatever their causality (inputs, parameters).
+
+        Parameters
+        ----------
+        **values : float
+            Values by variable name. Integer and Boolean variables take whole numbers
+            (True/False or 1/0 for a Boolean).
+
+        Raises
+        ------
+        ParameterError
+            A name the FMU does not have, or a fraction given to an Integer or Boolean.
+        """
         names = list(values)
         refs = self._refs(names)
         if all(self.types[n] == "Real" for n in names):
@@ -185,6 +287,24 @@ class ComponentFMU:
                 setter([ref for ref, _ in chosen], [cast(value) for _, value in chosen])
 
     def get(self, *names: str) -> list[float]:
+        """Read variables by name at the current time.
+
+        Parameters
+        ----------
+        *names : str
+            The variables' names.
+
+        Returns
+        -------
+        list
+            Their values in the order of `names`: float for a Real, int for an Integer,
+            bool for a Boolean.
+
+        Raises
+        ------
+        ParameterError
+            A name the FMU does not have.
+        """
         refs = self._refs(names)
         out = []
         for name, ref in zip(names, refs):
@@ -198,8 +318,26 @@ class ComponentFMU:
 
     def step(self, h: float, inputs: Mapping[str, float] | None = None,
              derivatives: Mapping[str, Sequence[float]] | None = None) -> None:
-        """Advance by h with inputs set at the current time; `derivatives` maps an input to
-        its 1st, 2nd, ... time derivatives there (the FMU interpolates with them)."""
+        """Advance by one communication step, with inputs set at the current time.
+
+        Parameters
+        ----------
+        h : float
+            The step [s].
+        inputs : mapping of str to float, optional
+            Input values at the current time, held over the step unless `derivatives`
+            gives their slopes.
+        derivatives : mapping of str to sequence of float, optional
+            Per input, its 1st, 2nd, ... time derivatives at the current time; the FMU
+            interpolates the input with them over the step.
+
+        Raises
+        ------
+        ParameterError
+            `derivatives` given to an FMU that cannot interpolate inputs.
+        FMUError
+            The step failed.
+        """
         if inputs:
             self.set(**inputs)
         if derivatives:
@@ -222,12 +360,29 @@ class ComponentFMU:
     def run(self, times: np.ndarray, outputs: Sequence[str],
             inputs: Callable[[float], Mapping[str, float]] | None = None,
             derivatives: Callable[[float], Mapping[str, Sequence[float]]] | None = None) -> dict[str, np.ndarray]:
-        """Step through `times` (the first is the current time) and record `outputs` at each.
+        """Step through communication points and record outputs at each.
 
-        `inputs(t)` gives the input values at a communication point t, held over the step
-        unless `derivatives(t)` also gives their derivatives there. The calls step() and
-        get() make, with C arrays prepared once: the virtual rig's long recordings (200,000
-        steps) spent three quarters of their time in fmpy's per-call conversions."""
+        The calls step() and get() make, with C arrays prepared once: the virtual rig's
+        long recordings (200,000 steps) spent three quarters of their time in fmpy's
+        per-call conversions.
+
+        Parameters
+        ----------
+        times : array_like of float
+            The communication points [s]; the first is the current time.
+        outputs : sequence of str
+            The variables recorded at each point.
+        inputs : callable, optional
+            ``inputs(t)`` gives the input values (a mapping of name to value) at a
+            communication point t, held over the step that starts there.
+        derivatives : callable, optional
+            ``derivatives(t)`` gives, per input, its time derivatives at t, as for `step`.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``"time"``: `times`; and each of `outputs`: its value at each point.
+        """
         times = np.asarray(times, dtype=float)
         self._refs(outputs)  # unknown names refused before the first step
         if any(self.types[name] != "Real" for name in outputs):
@@ -284,13 +439,31 @@ class ComponentFMU:
         return {"time": times, **{name: result[:, j] for j, name in enumerate(outputs)}}
 
     def get_state(self):
+        """Save the instance's state (fmi2GetFMUstate), to come back to it with `set_state`.
+
+        Returns
+        -------
+        object
+            The FMU's opaque state pointer; it lives as long as the instance.
+        """
         return self.slave.getFMUstate()
 
     def set_state(self, state, time: float) -> None:
+        """Restore a state saved by `get_state` (fmi2SetFMUstate).
+
+        Parameters
+        ----------
+        state : object
+            What `get_state` returned.
+        time : float
+            The communication point the state was saved at [s]: the FMU state does not
+            tell the binding its time.
+        """
         self.slave.setFMUstate(state)
         self.time = time
 
     def free(self) -> None:
+        """Free the instance (and unload its library); calling it again does nothing."""
         if self.slave is not None:
             self.slave.close()
             self.slave = None

@@ -104,12 +104,33 @@ def refuse_unsafe_names(fmu, description) -> None:
 
 
 def unpacked_fmu(name: str, fmu: str | Path | None = None, copy: int = 0) -> tuple[Path, object]:
-    """(unzip directory, model description) of component `name`, unpacked once per GUID.
+    """Unpack a component's FMU into a temporary folder, once per GUID, and read its model
+    description.
 
-    Without `fmu` the component is built from source if needed; with it, that file is used
-    (an FMU from an .ssp archive or an exported, re-parameterized one). `copy` > 0 unpacks
-    another copy: its binary is loaded as a library of its own, with its own globals, so
-    that instances in different threads share nothing (see Residuals' Jacobian threads)."""
+    The unpacked copy is shared by every instance in the process, so a fit that runs an FMU
+    thousands of times unzips it once; its names are checked on every call (the file may
+    have changed under the same GUID).
+
+    Parameters
+    ----------
+    name : str
+        The component ("CurrentLoop", "Cart", "Pendulum", "Controller"); without `fmu` it
+        is built from source if needed. With `fmu`, a label for the temporary folder.
+    fmu : str or Path, optional
+        The FMU file to use instead (an FMU from an .ssp archive, or an exported,
+        re-parameterized one).
+    copy : int, optional
+        0 for the shared copy; a number > 0 unpacks another copy, whose binary is loaded as
+        a library of its own, with its own globals, so that instances in different threads
+        share nothing (see Residuals' Jacobian threads).
+
+    Returns
+    -------
+    directory : Path
+        The folder the FMU is unpacked into (removed when the process ends).
+    description : fmpy.model_description.ModelDescription
+        The FMU's model description, as fmpy reads it.
+    """
     from pendfmu.fmubuild import ensure_fmu
     from pendfmu.fmubuild.compiler import model_description
 
