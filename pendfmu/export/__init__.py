@@ -42,7 +42,27 @@ MODELICA_FILE = "modifiers.mo"
 
 
 def write_export(plan: ExportPlan, out_dir: str | Path) -> list[Path]:
-    """Write the files of a checked `plan` into `out_dir`; return their paths (FMUs first)."""
+    """Write the files of a checked plan into a folder: the parameterized FMUs (FMI 2.0,
+    and FMI 3.0 under ``fmi3/``), the SSV, Modelica and Simulink files, and the rig's SSP
+    archives when the plan holds the whole rig.
+
+    Parameters
+    ----------
+    plan : ExportPlan
+        What to write, from :func:`plan_export` (its values are checked there).
+    out_dir : str or Path
+        The folder, created if needed; files of the same names in it are replaced.
+
+    Returns
+    -------
+    list of Path
+        The files written, the FMI 2.0 FMUs first.
+
+    Raises
+    ------
+    UsageError
+        `out_dir` exists and is not a folder.
+    """
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise UsageError(f"{out_dir}: exists and is not a directory")
@@ -65,20 +85,57 @@ def write_export(plan: ExportPlan, out_dir: str | Path) -> list[Path]:
 
 def export_all(parameters: Mapping[str, object], out_dir: str | Path, *, components: Iterable[str] | None = None,
                source: str | None = None) -> list[Path]:
-    """Check `parameters` (rig names -> values) and write the FMUs, SSV, Modelica and Simulink files.
+    """Check rig parameter values and write the FMUs, SSV, Modelica and Simulink files
+    that carry them: :func:`plan_export`, then :func:`write_export`.
 
-    `components` picks the FMUs to write (default: every component one of the given
-    names belongs to; all three when none is given). `source` names where the values came
-    from (the parameters file), for the descriptions in the files. Raises
-    ParameterFileError for an unknown name or a value a component cannot take.
+    Parameters
+    ----------
+    parameters : mapping of str to float
+        Rig parameter values by name, in SI units as MODEL.md names them (``m_p`` [kg],
+        ``l`` [m], ``k_fwc`` [N·s/m], ``F_Kc`` [N], ...).
+    out_dir : str or Path
+        The folder, created if needed.
+    components : iterable of str, optional
+        The components whose FMUs are written; by default every component one of the
+        given names belongs to (all three when none is given).
+    source : str, optional
+        Where the values came from (the parameters file), for the descriptions in the
+        files.
+
+    Returns
+    -------
+    list of Path
+        What :func:`write_export` returns.
+
+    Raises
+    ------
+    ParameterFileError
+        An unknown name, or a value a component cannot take: nothing is written.
+    UsageError
+        `out_dir` exists and is not a folder.
     """
     return write_export(plan_export(parameters, components, source), out_dir)
 
 
 def export_result(result, out_dir: str | Path) -> list[Path]:
-    """The files of `export_all` for a fit result (fitting.result.FitResult): pendfmu's
-    components with the rig's values, or, for a fit of a user's FMU or SSP system, a copy
-    of that model with the fitted values as its start values (export.model)."""
+    """Write the files of :func:`export_all` for a fit result.
+
+    For a fit of pendfmu's rig, its components with the fitted values; for a fit of a
+    user's FMU or SSP system, a copy of that model's FMUs with the fitted values as their
+    start values, with the SSV and Simulink files (export.model).
+
+    Parameters
+    ----------
+    result : FitResult
+        The fit (pendfmu.fitting.result); its `parameters` are exported.
+    out_dir : str or Path
+        The folder, created if needed.
+
+    Returns
+    -------
+    list of Path
+        The files written, the FMUs first.
+    """
     if result.model:
         from pendfmu.export.model import export_model
         from pendfmu.simulator.model import Model

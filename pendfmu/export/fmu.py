@@ -36,6 +36,9 @@ from pendfmu.escaping import one_line, xml_text
 from pendfmu.fmubuild import ensure_fmu
 
 MODEL_DESCRIPTION = "modelDescription.xml"
+#: The file in an exported FMU that holds its GUID and every parameter's start value by
+#: value reference: the binary computes with these values, and accepts the exported FMU's
+#: fresh GUID only when this file names it (the path inside the FMU's zip archive).
 START_FILE = "resources/pendfmu-start.txt"
 # The longest comment line of the start file: start.c reads lines of at most 255 characters,
 # and the rest of a longer one would be read as a line of its own (a value line, refused).

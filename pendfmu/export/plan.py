@@ -28,12 +28,20 @@ from pendfmu.ssp.rig import RIG_COMPONENTS
 
 @dataclass
 class ExportPlan:
-    """What an export writes.
+    """What an export writes, decided before any file is.
 
-    ``given`` holds the checked values as the user gave them; ``components`` maps each
-    component to be exported to the values it receives (a subset of ``given``);
-    ``skipped`` maps a component left out to the reason, and ``notes`` lists anything
-    else the user should be told (values that no exported component takes).
+    Attributes
+    ----------
+    given : dict of str to float
+        The checked values as the user gave them (``J_cm`` already converted to ``J_p``).
+    components : dict of str to dict of str to float
+        Each component to be exported, with the values it receives (a subset of `given`).
+    skipped : dict of str to str
+        Each component left out of a default export, with the reason.
+    notes : list of str
+        Anything else the user should be told (values that no exported component takes).
+    source : str
+        Where the values came from, for the descriptions in the files.
     """
 
     given: dict[str, float]
@@ -43,10 +51,20 @@ class ExportPlan:
     source: str = "parameters given in Python"
 
     def start_values(self, name: str) -> dict[str, float]:
-        """Every parameter of component `name`: its given value, else the FMU's default.
+        """Every parameter of a component: its given value, else the FMU's default.
 
         The SSV file and the Modelica text state the whole component, not only the changes,
         so that they do not depend on the defaults of whichever build they are used with.
+
+        Parameters
+        ----------
+        name : str
+            One of the plan's `components`.
+
+        Returns
+        -------
+        dict of str to float
+            Each of the component's parameters with its value.
         """
         given = self.components[name]
         return {p: given.get(p, float(v.start)) for p, v in COMPONENTS[name].parameters.items()}
@@ -84,12 +102,30 @@ def _explicit_selection(components: Iterable[str]) -> list[str]:
 
 def plan_export(parameters: Mapping[str, object], components: Iterable[str] | None = None,
                 source: str | None = None) -> ExportPlan:
-    """Check `parameters` and decide which component FMUs get which values.
+    """Check parameter values and decide which component FMUs get which values.
 
-    `components` names the components to export; by default every component that has one
-    of the given parameters (all three if none is given). Raises ParameterFileError for an
-    unknown name, a value that is not a finite number, a value outside every owner's
-    range, or a value a requested component refuses (see the module docstring for m_p = 0).
+    Parameters
+    ----------
+    parameters : mapping of str to float
+        Rig parameter values by name (SI units, as MODEL.md names them).
+    components : iterable of str, optional
+        The components to export; by default every component that has one of the given
+        parameters (all three if none is given).
+    source : str, optional
+        Where the values came from (the parameters file), named in error messages and in
+        the exported files' descriptions.
+
+    Returns
+    -------
+    ExportPlan
+        The components and the values each receives, with what is left out and why.
+
+    Raises
+    ------
+    ParameterFileError
+        An unknown name, a value that is not a finite number, a value outside every
+        owner's range, or a value a requested component refuses (see the module
+        docstring for m_p = 0).
     """
     where = source or ""
     given = settled(check_parameters(parameters, where), where)  # J_cm exported as J_p
