@@ -94,8 +94,14 @@ __all__ = ["INITIAL_NAMES", "MAT_TIME_NAMES", "MAX_BYTES", "PARAMETER_NAMES", "Q
 
 
 def format_document() -> Path:
-    """The recording format's reference (FORMAT.md, shipped with the package): columns,
-    units, the sidecar's keys, the angle and inertia conventions. `pendfmu format` prints it."""
+    """Where the recording format's reference is: columns, units, the sidecar's keys, the
+    angle and inertia conventions. `pendfmu format` prints it.
+
+    Returns
+    -------
+    Path
+        FORMAT.md, shipped with the package.
+    """
     from importlib.resources import files
 
     return Path(str(files(__name__) / "FORMAT.md"))
@@ -109,11 +115,31 @@ before reading them, rather than letting the machine swap."""
 def read_recording(path: str | os.PathLike, max_bytes: int | None = None, vocabulary: Vocabulary = RIG) -> Recording:
     """Read a recording (``.csv`` or MATLAB v5 ``.mat``) and its optional sidecar JSON.
 
-    `vocabulary` gives the names it may use: MODEL.md's (the default), or those of a
-    user's model (``Model.vocabulary()``).
+    Everything is checked here, once (the module docstring lists the layouts and the
+    rules); later stages trust a Recording.
 
-    Files above `max_bytes` (default :data:`MAX_BYTES`) are refused before reading:
-    parsing needs memory comparable to the file size, and a clear error beats swapping.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.csv`` or ``.mat`` file; its sidecar is the same name with ``.json``.
+    max_bytes : int, optional
+        Files above this size [bytes] are refused before reading: parsing needs memory
+        comparable to the file size, and a clear error beats swapping. Default
+        :data:`MAX_BYTES`.
+    vocabulary : Vocabulary, optional
+        The names it may use: MODEL.md's (:data:`RIG`, the default), or those of a user's
+        model (``Model.vocabulary()``).
+
+    Returns
+    -------
+    Recording
+        The checked recording, its arrays read-only.
+
+    Raises
+    ------
+    RecordingError
+        The file or its sidecar cannot be used; the message names the file, the column
+        and the line (or the JSON key).
     """
     path = Path(path)
     src = str(path)

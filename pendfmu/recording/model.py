@@ -15,12 +15,27 @@ from pendfmu.suggest import did_you_mean
 
 @dataclass(frozen=True)
 class SignalInfo:
-    """How one signal was measured. ``resolution`` is the quantization step Δ in the
-    signal's unit (None: not stated, e.g. an unquantized or unknown sensor); ``noise`` the
-    standard deviation of the sensor noise before quantization (None: not stated).
-    ``missing`` says that some samples are missing and how they are written (``"nan"``, or
-    a marker value like -9999): those samples become NaN, and a fit leaves them out (None:
-    every sample is there, and a NaN is an error)."""
+    """How one signal was measured: what the sidecar's ``"signals"`` entry says of it.
+
+    The fit weighs and compares a signal by these (a quantized encoder is not a noisy
+    analogue sensor); each is checked on construction (RecordingError).
+
+    Attributes
+    ----------
+    resolution : float or None
+        The quantization step Δ, in the signal's unit (e.g. m for ``x``, rad for ``phi``);
+        None: not stated, e.g. an unquantized or unknown sensor.
+    quantizer : str
+        How a reading is quantized: ``"round"`` (MODEL.md's default) or ``"floor"``
+        (:data:`QUANTIZERS`).
+    noise : float or None
+        The standard deviation of the sensor noise before quantization, in the signal's
+        unit; None: not stated.
+    missing : str or float or None
+        That some samples are missing and how they are written: ``"nan"``, or a marker
+        value like -9999. Those samples become NaN, and a fit leaves them out. None: every
+        sample is there, and a NaN is an error.
+    """
 
     resolution: float | None = None
     quantizer: str = "round"
@@ -48,6 +63,44 @@ class Recording:
     unusual file format just builds a Recording from arrays. The arrays are copied and
     made read-only: a recording is measured data, later stages must not edit it.
     Vector-shaped arrays (N x 1 or 1 x N, as MATLAB stores them) are flattened.
+
+    Attributes
+    ----------
+    path : Path or None
+        The file it was read from; None for a recording built in memory.
+    time : ndarray
+        The sample instants [s], strictly increasing, not necessarily evenly spaced.
+    signals : dict of str to ndarray
+        Each signal's samples (one per instant of `time`) by name (:data:`SIGNAL_NAMES`,
+        or the names of `vocabulary`), in the signal's SI unit (``x`` [m], ``phi`` [rad],
+        ``I`` [A], ...); in file order.
+    experiment : str
+        The sidecar's name of the experiment (e.g. ``"cart-startup"``); empty when not
+        stated.
+    signal_info : dict of str to SignalInfo
+        How the signals named in it were measured (resolution, quantizer, noise, missing
+        samples).
+    parameters : dict of str to float
+        The parameter values this run was made with, as the sidecar fixes them (SI units;
+        e.g. ``m_p`` = 0 [kg] for a run with the pendulum removed).
+    initial : dict of str to float
+        The known initial values of states at the first sample (e.g. ``phi`` [rad]).
+    ignored : tuple of str
+        The columns of the file left out: marked ``"ignore"`` in the sidecar, or, from a
+        .mat file, variables that are not vectors.
+    sidecar : Path or None
+        The sidecar file it was read with; None without one.
+    vocabulary : Vocabulary
+        The names it may use: :data:`RIG` (MODEL.md's), or a user's model's.
+    span : tuple of (float, float) or None
+        The time window [s] of the file this recording was cut to by :meth:`window`;
+        None for a whole file.
+
+    Raises
+    ------
+    RecordingError
+        A name, a length, a value or the time vector that cannot be used; the message
+        names the sample.
     """
 
     path: Path | None
@@ -103,9 +156,27 @@ class Recording:
         object.__setattr__(self, "ignored", tuple(self.ignored))
 
     def window(self, start: float, stop: float) -> Recording:
-        """The samples from `start` to `stop` [s] (both included) as a recording of their
-        own, e.g. one segment of a long run. Its sidecar's "initial" values belong to the
-        run's first sample, so a window that starts later does not know them."""
+        """The samples from `start` to `stop` as a recording of their own, e.g. one segment
+        of a long run.
+
+        Its sidecar's "initial" values belong to the run's first sample, so a window that
+        starts later does not know them.
+
+        Parameters
+        ----------
+        start, stop : float
+            The window's first and last instants [s], both included.
+
+        Returns
+        -------
+        Recording
+            The window, with `span` set to its first and last sample's time.
+
+        Raises
+        ------
+        RecordingError
+            The window holds fewer than 2 samples.
+        """
         step = float(np.median(np.diff(self.time))) if len(self.time) > 1 else 0.0
         keep = (self.time >= start - 1e-9 * step) & (self.time <= stop + 1e-9 * step)
         if keep.sum() < 2:
@@ -140,7 +211,23 @@ class Recording:
         return tuple(self.signals)
 
     def signal(self, name: str) -> np.ndarray:
-        """The samples of signal `name`; a missing one is an error naming file and column."""
+        """The samples of one signal; a missing one is an error naming file and column.
+
+        Parameters
+        ----------
+        name : str
+            The signal's name.
+
+        Returns
+        -------
+        ndarray
+            Its samples (read-only), one per instant of `time`.
+
+        Raises
+        ------
+        RecordingError
+            The recording has no such column.
+        """
         if name not in self.signals:
             known = self.vocabulary.signals
             hint = "" if name in known else (
@@ -150,29 +237,78 @@ class Recording:
         return self.signals[name]
 
     def resolution(self, name: str) -> float | None:
-        """Quantization step of signal `name` from the sidecar; None when not stated."""
+        """The quantization step of a signal, as the sidecar states it.
+
+        Parameters
+        ----------
+        name : str
+            The signal's name (a column of this recording).
+
+        Returns
+        -------
+        float or None
+            The step Δ in the signal's unit; None when not stated.
+        """
         self.signal(name)
         info = self.signal_info.get(name)
         return None if info is None else info.resolution
 
     def quantizer(self, name: str) -> str:
-        """Quantizer of signal `name` from the sidecar; ``round`` when not stated (MODEL.md)."""
+        """How a signal's readings are quantized, as the sidecar states it.
+
+        Parameters
+        ----------
+        name : str
+            A column of this recording.
+
+        Returns
+        -------
+        str
+            ``"round"`` or ``"floor"``; ``"round"`` when not stated (MODEL.md).
+        """
         self.signal(name)
         info = self.signal_info.get(name)
         return "round" if info is None else info.quantizer
 
     def to_frame(self):
-        """The signals as a pandas DataFrame indexed by time (for plotting and inspection)."""
+        """The signals as a table, for plotting and inspection.
+
+        Returns
+        -------
+        pandas.DataFrame
+            A column per signal, indexed by ``time`` [s].
+        """
         import pandas as pd
 
         return pd.DataFrame(dict(self.signals), index=pd.Index(self.time, name="time"))
 
 
 def quantize(values, resolution: float | None, quantizer: str = "round") -> np.ndarray:
-    """What a sensor of step `resolution` reads: ``Δ·round(value/Δ)`` (MODEL.md) or
-    ``Δ·floor(value/Δ)``. ``round`` rounds halves to even (numpy's rint), which has no
-    bias for signals that swing about zero. ``resolution=None`` (not stated) returns the
-    values unchanged, so callers can pass ``recording.resolution(name)`` straight in."""
+    """What a sensor of step Δ reads: ``Δ·round(value/Δ)`` (MODEL.md) or ``Δ·floor(value/Δ)``.
+
+    ``round`` rounds halves to even (numpy's rint), which has no bias for signals that swing
+    about zero.
+
+    Parameters
+    ----------
+    values : array_like of float
+        The true values.
+    resolution : float or None
+        The step Δ, in the values' unit; None (not stated) returns the values unchanged, so
+        callers can pass ``recording.resolution(name)`` straight in.
+    quantizer : str, optional
+        ``"round"`` or ``"floor"`` (:data:`QUANTIZERS`).
+
+    Returns
+    -------
+    ndarray
+        The readings, a new float64 array.
+
+    Raises
+    ------
+    RecordingError
+        A step that is not a finite positive number, or an unknown quantizer.
+    """
     values = np.asarray(values, dtype=np.float64)
     if resolution is None:
         return values.copy()

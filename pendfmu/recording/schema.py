@@ -55,8 +55,22 @@ INITIAL_NAMES: tuple[str, ...] = _initial_names()
 @dataclass(frozen=True)
 class Vocabulary:
     """The names a recording may use: its columns, the sidecar's parameters (with a check
-    of each value) and its known initial states. MODEL.md's rig by default (RIG); a fit of
-    a user's model reads recordings with the model's names (Model.vocabulary)."""
+    of each value) and its known initial states.
+
+    MODEL.md's rig by default (:data:`RIG`); a fit of a user's model reads recordings with
+    the model's names (``Model.vocabulary``).
+
+    Attributes
+    ----------
+    signals : tuple of str
+        The valid column names.
+    parameter_problem : callable
+        ``parameter_problem(name, value)``: why `value` cannot be parameter `name` in a
+        sidecar (unknown, not finite, out of range), or None when it can.
+    initial_problem : callable
+        ``initial_problem(name, value)``: why `value` cannot be the known initial value of
+        `name`, or None when it can.
+    """
 
     signals: tuple[str, ...]
     parameter_problem: Callable[[str, float], str | None]

@@ -32,9 +32,26 @@ MAT_VARIABLE = "simout"
 
 
 def check_output_path(path: str | os.PathLike) -> str:
-    """The format ('.csv' or '.mat') :func:`write_signals` will write to `path`; any
-    other suffix is refused, naming the allowed ones. Commands call this before they
-    simulate, so a typo in the name costs no run."""
+    """The format :func:`write_signals` will write to a path, by its suffix; any other
+    suffix is refused, naming the allowed ones.
+
+    Commands call this before they simulate, so a typo in the name costs no run.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output file's name.
+
+    Returns
+    -------
+    str
+        ``".csv"`` or ``".mat"`` (lower case, whatever the name's case).
+
+    Raises
+    ------
+    RecordingError
+        Any other suffix, or none.
+    """
     suffix = Path(path).suffix.lower()
     if suffix not in OUTPUT_SUFFIXES:
         found = f"suffix {Path(path).suffix!r}" if suffix else "no suffix"
@@ -58,6 +75,26 @@ def write_signals(path: str | os.PathLike, time, columns: Mapping[str, object]) 
     sides; and because labels are strings, any model's output names fit (``Cart.x`` is
     not a MATLAB variable name). In MATLAB: ``load out.mat; plot(simout.time,
     simout.signals(2).values)``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file, ``.csv`` or ``.mat`` (:func:`check_output_path`); replaced if it exists.
+    time : array_like of float
+        The time vector [s].
+    columns : mapping of str to array_like
+        The columns by name, each 1-D and as long as `time`; none named ``time``.
+
+    Returns
+    -------
+    Path
+        `path`.
+
+    Raises
+    ------
+    RecordingError
+        A suffix other than ``.csv``/``.mat``, a column named ``time``, or a column whose
+        length differs from `time`'s.
     """
     path = Path(path)
     suffix = check_output_path(path)
@@ -80,12 +117,30 @@ def write_signals(path: str | os.PathLike, time, columns: Mapping[str, object]) 
 
 
 def write_recording(recording: Recording, path: str | os.PathLike) -> Path:
-    """Write `recording` as ``path`` (CSV) and its sidecar ``path`` with ``.json``.
+    """Write a recording as CSV and its sidecar JSON beside it.
 
     Numbers are written as the shortest text that reads back to the same float64, so
     reading the files gives bit-identical arrays. The sidecar is always written, even
     when empty, so a stale one from an earlier run cannot attach its metadata to the new
-    data. Ignored columns of the source are not written. Returns the CSV path.
+    data. Ignored columns of the source are not written.
+
+    Parameters
+    ----------
+    recording : Recording
+        What to write.
+    path : str or os.PathLike
+        The CSV file (its name must end in ``.csv``); the sidecar is `path` with
+        ``.json``. Both are replaced if they exist.
+
+    Returns
+    -------
+    Path
+        The CSV file's path.
+
+    Raises
+    ------
+    RecordingError
+        `path` does not end in ``.csv``.
     """
     path = Path(path)
     if path.suffix.lower() != ".csv":
