@@ -13,16 +13,57 @@ __all__ = ["BuildError", "FMI_VERSIONS", "build_all", "build_fmu", "compute_guid
 
 
 def build_all(force: bool = False, folder: Path | None = None, fmi_version: int = 2) -> dict[str, Path]:
-    """Build every component FMU of one FMI version that is missing or stale in `folder`
-    (default: the FMU folder pendfmu loads from, compiler.fmu_folder); return their paths
-    by name."""
+    """Build every component FMU of one FMI version that is missing or stale.
+
+    Parameters
+    ----------
+    force : bool, optional
+        Build even FMUs whose sources have not changed.
+    folder : Path, optional
+        Where the FMUs go; by default the FMU folder pendfmu loads from
+        (compiler.fmu_folder: ``$PENDFMU_FMU_DIR``, a checkout's ``fmus/``, or the user
+        cache).
+    fmi_version : int, optional
+        2 or 3 (:data:`FMI_VERSIONS`); FMI 3.0 FMUs go into ``fmi3/`` of the folder.
+
+    Returns
+    -------
+    dict of str to Path
+        Each component's FMU file, by component name.
+
+    Raises
+    ------
+    BuildError
+        No C compiler, or the compiler refused the sources.
+    """
     return {name: build_fmu(component, force=force, fmi_version=fmi_version, folder=folder)
             for name, component in progress(ALL_COMPONENTS.items(), f"building FMI {fmi_version} FMUs",
                                             label=lambda item: item[0])}
 
 
 def ensure_fmu(name: str, fmi_version: int = 2) -> Path:
-    """The path of component `name`'s FMU (FMI 2.0 or 3.0), built first if missing or stale."""
+    """The FMU of a component, built first if missing or stale: what every simulation
+    loads, so a fresh install or a changed source needs no separate build step.
+
+    Parameters
+    ----------
+    name : str
+        The component: "CurrentLoop", "Cart", "Pendulum" or "Controller".
+    fmi_version : int, optional
+        2 or 3.
+
+    Returns
+    -------
+    Path
+        The FMU file, in the FMU folder pendfmu loads from.
+
+    Raises
+    ------
+    KeyError
+        `name` is not a component.
+    BuildError
+        The FMU had to be built and could not be.
+    """
     if name not in ALL_COMPONENTS:
         raise KeyError(f"no component {name!r}; known: {', '.join(ALL_COMPONENTS)}")
     return build_fmu(ALL_COMPONENTS[name], fmi_version=fmi_version)

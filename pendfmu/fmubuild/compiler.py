@@ -115,6 +115,9 @@ class FmiVersion:
     model_description: Callable[[Component, str, list[str]], bytes]
 
 
+#: The FMI versions the components are built for, each with what it changes in an FMU
+#: (FmiVersion: the API facade compiled in, the binaries folders' names, the FMU
+#: subfolder, the model description writer): 2 (FMI 2.0) and 3 (FMI 3.0).
 FMI_VERSIONS = {
     2: FmiVersion("fmi2_api.c", {"linux64": "linux64", "win64": "win64"}, "", description.model_description),
     3: FmiVersion("fmi3_api.c", {"linux64": "x86_64-linux", "win64": "x86_64-windows"}, "fmi3",
@@ -161,9 +164,23 @@ def built_platforms(warn: bool = True) -> list[Platform]:
 def compute_guid(component: Component, fmi_version: int = 2) -> str:
     """A GUID that changes whenever the table, the sources, or any platform's compiler and
     flags change (an FMI 3.0 FMU's instantiationToken: its facade is among the sources).
+
     It does not depend on which compilers this machine has: a shell without mingw-w64 on
     its PATH must not find every FMU stale. Installing mingw-w64 later rebuilds the FMUs
-    all the same: build_fmu also wants every buildable platform's binary inside."""
+    all the same: build_fmu also wants every buildable platform's binary inside.
+
+    Parameters
+    ----------
+    component : Component
+        The component's variable table (pendfmu.components), hashed with its sources.
+    fmi_version : int, optional
+        2 or 3: the version whose facade is hashed.
+
+    Returns
+    -------
+    str
+        The GUID in braces, ``{xxxxxxxx-xxxx-...}``.
+    """
     digest = hashlib.sha256()
     digest.update(repr(component).encode())
     digest.update(" ".join(CFLAGS).encode())
@@ -177,8 +194,22 @@ def compute_guid(component: Component, fmi_version: int = 2) -> str:
 
 
 def fmu_path(component: Component, fmi_version: int = 2, folder: Path | None = None) -> Path:
-    """<folder>/<Name>.fmu for FMI 2.0, <folder>/fmi3/<Name>.fmu for FMI 3.0 (folder: the
-    FMU folder pendfmu loads from, fmu_folder())."""
+    """Where a component's FMU is (or will be) built; nothing is built or checked.
+
+    Parameters
+    ----------
+    component : Component
+        The component's variable table (pendfmu.components).
+    fmi_version : int, optional
+        2 or 3.
+    folder : Path, optional
+        The FMU folder; by default the one pendfmu loads from (``compiler.fmu_folder()``).
+
+    Returns
+    -------
+    Path
+        ``<folder>/<Name>.fmu`` for FMI 2.0, ``<folder>/fmi3/<Name>.fmu`` for FMI 3.0.
+    """
     return (folder or FMUS_DIR) / fmi_version_of(fmi_version).subfolder / f"{component.name}.fmu"
 
 
@@ -248,8 +279,33 @@ def _holds_binaries(path: Path, version: FmiVersion) -> bool:
 
 
 def build_fmu(component: Component, force: bool = False, fmi_version: int = 2, folder: Path | None = None) -> Path:
-    """Build <folder>/<Name>.fmu (FMI 3.0: <folder>/fmi3/<Name>.fmu; folder: fmu_folder())
-    unless an FMU of the same sources is already there."""
+    """Build a component's FMU unless an FMU of the same sources is already there.
+
+    An FMU is stale when its GUID (:func:`compute_guid`) differs, or when it lacks the
+    binary of a platform this machine can now build for. It is written whole or not at
+    all: a reader never sees half an FMU.
+
+    Parameters
+    ----------
+    component : Component
+        What to build: a component's variable table (pendfmu.components).
+    force : bool, optional
+        Build even when an FMU of the same sources is there.
+    fmi_version : int, optional
+        2 (FMI 2.0) or 3 (FMI 3.0).
+    folder : Path, optional
+        The FMU folder, as for :func:`fmu_path`.
+
+    Returns
+    -------
+    Path
+        The FMU: ``<folder>/<Name>.fmu``, or ``<folder>/fmi3/<Name>.fmu`` for FMI 3.0.
+
+    Raises
+    ------
+    BuildError
+        No C compiler, or the compiler refused the sources (its output in the message).
+    """
     version = fmi_version_of(fmi_version)
     target = fmu_path(component, fmi_version, folder)
     guid = compute_guid(component, fmi_version)
