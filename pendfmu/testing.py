@@ -82,10 +82,25 @@ def _kind(interface: str) -> str:
 # -- parametrization
 
 def fmus_and_interfaces(paths: Iterable[str | Path], interfaces: Iterable[str] = ("CoSimulation", "ModelExchange")):
-    """pytest params ``(path, interface)`` for every FMU and interface, with readable ids
-    (``Cart-CS``, ``Cart-ME``); an interface the FMU does not declare is a param marked skip
-    that names it. For ``@pytest.mark.parametrize("fmu, interface", ...)``. An FMU file that
-    does not exist yet (built by a fixture) gets every interface; the test finds out then."""
+    """One pytest case per FMU and interface, for
+    ``@pytest.mark.parametrize("fmu, interface", fmus_and_interfaces(paths))``.
+
+    An interface the FMU does not declare is a case marked skip that names it, so a report
+    shows what was not tested rather than hiding it. An FMU file that does not exist yet
+    (built by a fixture) gets every interface; the test finds out then.
+
+    Parameters
+    ----------
+    paths : iterable of str or Path
+        The FMU files.
+    interfaces : iterable of str, optional
+        The interfaces to test each with: "CoSimulation"/"CS", "ModelExchange"/"ME".
+
+    Returns
+    -------
+    list of pytest.param
+        ``(path, "CS" | "ME")`` cases with readable ids (``Cart-CS``, ``Cart-ME``).
+    """
     from fmpy import read_model_description
 
     params = []
@@ -108,7 +123,16 @@ def fmus_and_interfaces(paths: Iterable[str | Path], interfaces: Iterable[str] =
 
 @dataclass
 class Run:
-    """The outputs of one run: ``time`` and one numpy array per variable (``run["x"]``)."""
+    """The outputs of one run of an FMU (what an `fmu_runner` call returns), indexed by
+    name: ``run["time"]``, ``run["x"]``.
+
+    Attributes
+    ----------
+    time : ndarray
+        The communication points [s].
+    values : dict of str to ndarray
+        Each recorded variable's value at every communication point, by name.
+    """
     time: np.ndarray
     values: dict[str, np.ndarray] = field(default_factory=dict)
 
@@ -124,6 +148,13 @@ class Run:
         return name == "time" or name in self.values
 
     def names(self) -> list[str]:
+        """The recorded variables' names.
+
+        Returns
+        -------
+        list of str
+            In the order they were asked for (``time`` not among them).
+        """
         return list(self.values)
 
 
@@ -132,21 +163,69 @@ Stimulus = Mapping[str, "np.ndarray | float | Callable[[float], float]"]
 
 class FMURunner:
     """Loads FMUs as CS or ME (pendfmu.check's driver: ME integrated with classical
-    Runge-Kutta, state events located by bisection) and runs them; frees what it opened."""
+    Runge-Kutta, state events located by bisection) and runs them; frees what it opened.
+
+    What the `fmu_runner` fixture gives a test: calling it runs an FMU (``__call__``),
+    :meth:`open` gives an instance to step by hand. It takes no arguments and carries no
+    public attributes.
+    """
 
     def __init__(self):
         self._open: list = []
         self._targets: dict = {}
 
     def target(self, path: str | Path, stop: float | None = None, step: float | None = None):
-        """pendfmu.check's Target of the FMU file (read and unpacked once per runner)."""
+        """pendfmu.check's Target of an FMU file: its description, unpacked binary,
+        interfaces and variables (read and unpacked once per runner).
+
+        Parameters
+        ----------
+        path : str or Path
+            The FMU file.
+        stop : float, optional
+            The end of its runs [s]; by default the default experiment's stop time, else 1 s.
+        step : float, optional
+            The communication step [s]; by default the default experiment's, else stop/500.
+
+        Returns
+        -------
+        pendfmu.check.fmu.Target
+            The FMU as the checks see it.
+
+        Raises
+        ------
+        AssertionError
+            The file is not an FMU pendfmu can read (no file, not a zip, invalid XML, not
+            FMI 2.0 or 3.0, a name FMI does not allow).
+        """
         key = (str(Path(path).resolve()), stop, step)
         if key not in self._targets:
             self._targets[key] = _target(path, stop, step)
         return self._targets[key]
 
     def open(self, path: str | Path, interface: str = "CS", outputs: Iterable[str] | None = None):
-        """An instantiated (not yet initialized) `pendfmu.check.fmu.Driver`; freed at teardown."""
+        """An FMU instance to step by hand: instantiated, not yet initialized; freed at
+        teardown (or by :meth:`free`).
+
+        Parameters
+        ----------
+        path : str or Path
+            The FMU file.
+        interface : str, optional
+            "CS"/"CoSimulation" or "ME"/"ModelExchange".
+        outputs : iterable of str, optional
+            The variables its runs record; by default every output.
+
+        Returns
+        -------
+        pendfmu.check.driver.Driver
+            The instance, on the interface asked for.
+
+        Raises
+        ------
+        AssertionError
+            The FMU has no such interface.
+        """
         from pendfmu.check.fmu import Driver
 
         target = self.target(path)
@@ -163,14 +242,38 @@ class FMURunner:
     def __call__(self, path: str | Path, interface: str = "CS", *, stimulus: Stimulus | None = None,
                  recording=None, parameters: Mapping[str, float] | None = None, stop: float | None = None,
                  step: float | None = None, outputs: Iterable[str] | None = None) -> Run:
-        """Run the FMU from 0 to `stop` with communication step `step` (defaults: the
-        recording's or stimulus' last time and sample period, else the FMU's default
-        experiment's stop and step, else 1 s and stop/500). Inputs come from `recording` (a
-        pendfmu.recording.Recording, its file, a CSV file with time first, or a mapping with
-        "time": the columns named like the FMU's inputs drive them, the others are ignored) or
-        `stimulus` ({input: array over stimulus["time"] | constant | function of t}), held
-        over each step (the last sample at or before the step's start). Returns the
-        `outputs` (default: every output) at every communication point."""
+        """Run an FMU from 0 to `stop`, its inputs held over each step (the last sample at
+        or before the step's start), and record its outputs.
+
+        Parameters
+        ----------
+        path : str or Path
+            The FMU file.
+        interface : str, optional
+            "CS"/"CoSimulation" or "ME"/"ModelExchange".
+        stimulus : mapping, optional
+            Inputs by name, each an array over ``stimulus["time"]``, a constant, or a
+            function of t [s].
+        recording : Recording or str or Path or mapping, optional
+            Inputs from a recording: a pendfmu.recording.Recording, its file, a CSV file
+            with time first, or a mapping with ``"time"``. The columns named like the FMU's
+            inputs drive them, the others are ignored. Not with `stimulus`.
+        parameters : mapping of str to float, optional
+            Parameter values set before initialization.
+        stop : float, optional
+            The run's end [s]: by default the recording's or stimulus' last time, else the
+            FMU's default experiment's stop time, else 1 s.
+        step : float, optional
+            The communication step [s]: by default the recording's or stimulus' sample
+            period, else the default experiment's step, else stop/500.
+        outputs : iterable of str, optional
+            The variables recorded; by default every output.
+
+        Returns
+        -------
+        Run
+            The recorded variables at every communication point.
+        """
         target = self.target(path)
         times, columns = _inputs(target, stimulus, recording)
         if stop is None:
@@ -188,11 +291,19 @@ class FMURunner:
         return Run(time, {name: rows[:, j] for j, name in enumerate(names)})
 
     def free(self, unit) -> None:
+        """Free an instance :meth:`open` gave, before teardown (a test that opens many).
+
+        Parameters
+        ----------
+        unit : pendfmu.check.driver.Driver
+            The instance; one this runner did not open, or already freed, is left alone.
+        """
         if unit in self._open:
             self._open.remove(unit)
             unit.free()
 
     def close(self) -> None:
+        """Free every instance still open, newest first (the fixture's teardown)."""
         while self._open:
             self.free(self._open[-1])
 
@@ -260,7 +371,13 @@ def _feed(target, times, columns) -> Callable[[float], np.ndarray]:
 
 @pytest.fixture
 def fmu_runner():
-    """Runs FMUs as CS or ME on a recording or a stimulus; frees every instance after the test."""
+    """Runs FMUs as CS or ME on a recording or a stimulus; frees every instance after the test.
+
+    Yields
+    ------
+    FMURunner
+        The test's runner: ``fmu_runner(path, "CS", stimulus=...)`` returns a :class:`Run`.
+    """
     runner = FMURunner()
     yield runner
     runner.close()
@@ -318,7 +435,20 @@ def assert_valid(fmu, interface: str | None = None):
     """The static checks: the model description valid (fmpy's validate_fmu), every function
     FMI 2.0 requires for the interface exported, a wrong GUID refused and the right one
     accepted, the declared capabilities (FMU state, serialization, input derivatives,
-    directional derivatives, variable steps) working."""
+    directional derivatives, variable steps) working.
+
+    Parameters
+    ----------
+    fmu : str or Path
+        The FMU file.
+    interface : str, optional
+        "CS"/"CoSimulation" or "ME"/"ModelExchange"; by default every interface it has.
+
+    Raises
+    ------
+    AssertionError
+        A check failed or exercised nothing: each such check's name and message.
+    """
     from pendfmu.check import static
     from pendfmu.check.battery import group_jobs
 
@@ -329,7 +459,28 @@ def assert_valid(fmu, interface: str | None = None):
 
 def assert_deterministic(fmu, interface: str | None = None, *, stop=None, step=None, recording=None):
     """Two fresh instances, same inputs: outputs identical bit for bit, and moving (identical
-    constants say nothing: that is inconclusive and fails too)."""
+    constants say nothing: that is inconclusive and fails too).
+
+    Parameters
+    ----------
+    fmu : str or Path
+        The FMU file.
+    interface : str, optional
+        "CS"/"CoSimulation" or "ME"/"ModelExchange"; by default every interface it has.
+    stop : float, optional
+        The end of the runs [s]; by default the recording's last time, else the default
+        experiment's stop time, else 1 s.
+    step : float, optional
+        The communication step [s]; by default the default experiment's, else stop/500.
+    recording : str or Path, optional
+        A recording file (CSV, time first, or .mat) whose columns named like the FMU's
+        inputs drive them; without it the inputs keep their start values.
+
+    Raises
+    ------
+    AssertionError
+        The runs differ, or nothing moved; the first difference is named.
+    """
     from pendfmu.check.contain import Job
 
     target = _target(fmu, stop, step, recording)
@@ -357,7 +508,33 @@ def assert_reset_restores(fmu, interface: str | None = None, *, parameter: str |
     back at its start value), and `parameter` = `value` set after the reset acts like a fresh
     instance with that value. The parameter must change the outputs (else the check could not
     see it kept: inconclusive, a failure; without `parameter` the check tries a few). An FMU
-    that refuses fmi2Reset passes unless `refusal_ok` is False."""
+    that refuses fmi2Reset passes unless `refusal_ok` is False.
+
+    Parameters
+    ----------
+    fmu : str or Path
+        The FMU file.
+    interface : str, optional
+        "CS"/"CoSimulation" or "ME"/"ModelExchange"; by default every interface it has.
+    parameter : str, optional
+        The parameter changed; by default the check tries a few.
+    value : float, optional
+        Its value after the reset; by default 1.25 times its start value (0.5 for a start
+        of 0).
+    refusal_ok : bool, optional
+        Whether an FMU that refuses fmi2Reset passes.
+    stop, step : float, optional
+        The end of the runs and the communication step [s], as for
+        :func:`assert_deterministic`.
+    recording : str or Path, optional
+        A recording file driving the inputs, as for :func:`assert_deterministic`.
+
+    Raises
+    ------
+    AssertionError
+        The run after the reset differs from a fresh instance's, the parameter did not
+        move the outputs, or (with `refusal_ok` False) fmi2Reset was refused.
+    """
     from pendfmu.check import determinism
 
     def prepare(target):
@@ -379,7 +556,25 @@ def assert_reset_restores(fmu, interface: str | None = None, *, parameter: str |
 def assert_state_rollback(fmu, interface: str | None = None, *, stop=None, step=None, recording=None):
     """FMU states saved at several points (one in a new discrete mode), restored after the run
     went on, reproduce the rest of the run bit for bit; serialized states too. An FMU that does
-    not declare canGetAndSetFMUstate fails: there is nothing to roll back."""
+    not declare canGetAndSetFMUstate fails: there is nothing to roll back.
+
+    Parameters
+    ----------
+    fmu : str or Path
+        The FMU file.
+    interface : str, optional
+        "CS"/"CoSimulation" or "ME"/"ModelExchange"; by default every interface it has.
+    stop, step : float, optional
+        The end of the run and the communication step [s], as for
+        :func:`assert_deterministic`.
+    recording : str or Path, optional
+        A recording file driving the inputs, as for :func:`assert_deterministic`.
+
+    Raises
+    ------
+    AssertionError
+        A restored state did not reproduce the run, or the FMU cannot save its state.
+    """
     from pendfmu.check import rollback
 
     target, rows = _rows(fmu, rollback, interface, stop, step, recording)
@@ -391,8 +586,34 @@ def assert_state_rollback(fmu, interface: str | None = None, *, stop=None, step=
 def assert_converges(fmu, interface: str | None = None, *, stop=None, step=None, recording=None,
                      order: float | None = None, step_rtol: float | None = None):
     """Communication steps h, h/2, h/4 with the inputs held: the results move by at most
-    `step_rtol` (default 1e-4) of each output's nominal or range (a switch decided only at
-    communication points fails), or converge at the stated `order` of a fixed-step solver."""
+    `step_rtol` of each output's nominal or range (a switch decided only at communication
+    points fails), or converge at the stated `order` of a fixed-step solver.
+
+    Parameters
+    ----------
+    fmu : str or Path
+        The FMU file.
+    interface : str, optional
+        "CS"/"CoSimulation" or "ME"/"ModelExchange"; by default every interface it has.
+    stop : float, optional
+        The end of the runs [s], as for :func:`assert_deterministic`.
+    step : float, optional
+        h, the coarsest communication step [s]; by default the default experiment's step,
+        else stop/500.
+    recording : str or Path, optional
+        A recording file driving the inputs, as for :func:`assert_deterministic`.
+    order : float, optional
+        The order of the fixed-step solver the FMU is built around; then its results must
+        converge at that order.
+    step_rtol : float, optional
+        How far the results may move, relative to each output's nominal or range; 1e-4
+        when not given.
+
+    Raises
+    ------
+    AssertionError
+        An output moved more than allowed (or converged slower than `order`).
+    """
     from pendfmu.check import convergence
 
     def prepare(target):
@@ -406,8 +627,27 @@ def assert_converges(fmu, interface: str | None = None, *, stop=None, step=None,
 def assert_finite_over_inputs(fmu, interface: str | None = None, *, stop=None, step=None,
                               input_limit: float | None = None):
     """Each Real input held at five values over its declared range, else at its start value
-    and +- 1, 10, ... times its nominal up to `input_limit` (default 1000) times it: every
-    output stays finite and no value inside a declared range is refused."""
+    and +- 1, 10, ... times its nominal up to `input_limit` times it: every output stays
+    finite and no value inside a declared range is refused.
+
+    Parameters
+    ----------
+    fmu : str or Path
+        The FMU file.
+    interface : str, optional
+        "CS"/"CoSimulation" or "ME"/"ModelExchange"; by default every interface it has.
+    stop, step : float, optional
+        The end of each run and the communication step [s], as for
+        :func:`assert_deterministic` (the check sets the inputs itself: no recording).
+    input_limit : float, optional
+        How far an input without a declared range is driven, in multiples of its nominal;
+        1000 when not given.
+
+    Raises
+    ------
+    AssertionError
+        An output became NaN or Inf, or a value inside a declared range was refused.
+    """
     from pendfmu.check import inputs
 
     def prepare(target):
@@ -420,7 +660,23 @@ def assert_finite_over_inputs(fmu, interface: str | None = None, *, stop=None, s
 def assert_calls_rejected(fmu, interface: str | None = None, *, step=None):
     """Misuse (a step before initialization, an unknown value reference, NaN and Inf inputs,
     a fixed parameter set while stepping) is answered with an error status and a log message,
-    never a crash or an OK with NaN outputs."""
+    never a crash or an OK with NaN outputs.
+
+    Parameters
+    ----------
+    fmu : str or Path
+        The FMU file.
+    interface : str, optional
+        "CS"/"CoSimulation" or "ME"/"ModelExchange"; by default every interface it has.
+    step : float, optional
+        The communication step [s] of the calls; by default the default experiment's, else
+        1/500 of its stop time.
+
+    Raises
+    ------
+    AssertionError
+        A misuse was accepted (status OK), or crashed the FMU.
+    """
     from pendfmu.check import sequence
 
     target, rows = _rows(fmu, sequence, interface, None, step, None)
@@ -436,9 +692,32 @@ def assert_matches(result, reference, atol: float = 0.0, rtol: float = 0.0, ttol
     reference's times t, within atol + rtol * max(|y|, nominal) of the reference's values over
     [t - ttol, t + ttol]. The result is taken at the reference's times (linear between its
     own samples where the grids differ); `nominal` (per name, default 0) floors the relative
-    part near zero. `result`, `reference`: a Run, a Recording, a mapping with "time" and
-    columns, or a CSV file (time first). A failure names the variable, the time, the value,
-    the tube and by how much it is missed."""
+    part near zero. A failure names the variable, the time, the value, the tube and by how
+    much it is missed.
+
+    Parameters
+    ----------
+    result, reference : Run or Recording or mapping or str or Path
+        What is checked and what it is checked against: a Run, a Recording, a mapping with
+        "time" and columns, or a CSV file (time first).
+    atol : float, optional
+        The tube's absolute half-width, in each variable's unit.
+    rtol : float, optional
+        Its relative half-width, of max(|y|, nominal).
+    ttol : float, optional
+        The time tolerance [s]: the tube at t spans the reference's values over
+        [t - ttol, t + ttol], so an edge a little early or late passes.
+    variables : iterable of str, optional
+        The variables compared; by default every one the two have in common.
+    nominal : mapping of str to float, optional
+        Per variable, the floor of the relative part near zero (default 0).
+
+    Raises
+    ------
+    AssertionError
+        A variable leaves the tube (each is named, with the worst point), a variable is in
+        only one of them, or they have none in common.
+    """
     from pendfmu.check.reference import tube_check
 
     result, reference = _table(result), _table(reference)
