@@ -48,9 +48,20 @@ def ssv(tag: str) -> str:
 class SspError(BadInput):
     """An SSD, SSV or SSP file (or a system about to be written) is not acceptable.
 
-    ``file``, ``line`` and ``element`` locate the problem; ``problem`` says what is wrong.
     The message reads ``file:line: <element ...>: problem`` like a compiler's, because the
     person reading it has the file open in an editor.
+
+    Attributes
+    ----------
+    file : str or None
+        The file, e.g. ``rig.ssp!SystemStructure.ssd`` for a member of an archive; None for
+        a system built in memory.
+    line : int or None
+        The line of the element in the file; None when not known.
+    element : str or None
+        The element's start tag as it reads in the file; None when not known.
+    problem : str
+        What is wrong.
     """
 
     def __init__(self, file: str | Path | None, problem: str, *, line: int | None = None,
@@ -70,7 +81,18 @@ class SspError(BadInput):
         return f"{where}: {self.problem}"
 
     def in_file(self, file: str | Path) -> SspError:
-        """The same error reported against another file name (e.g. the archive member)."""
+        """The same error reported against another file name (e.g. the archive member).
+
+        Parameters
+        ----------
+        file : str or Path
+            The name to report.
+
+        Returns
+        -------
+        SspError
+            A new error; this one is unchanged.
+        """
         return SspError(file, self.problem, line=self.line, element=self.element)
 
 
@@ -112,7 +134,19 @@ class Locator:
 
 
 def schema_dir() -> Path:
-    """Where fmpy keeps the normative SSP 1.0 XML schemas."""
+    """Where fmpy keeps the normative SSP 1.0 XML schemas, which every file pendfmu reads
+    or writes is validated against.
+
+    Returns
+    -------
+    Path
+        The folder of the schemas.
+
+    Raises
+    ------
+    FileNotFoundError
+        fmpy is installed without them.
+    """
     import fmpy
 
     path = Path(fmpy.__file__).parent / "ssp" / "schema"

@@ -98,6 +98,26 @@ def write_ssp(system: System, path: str | Path, *, system_connectors: bool = Tru
     it before packing, so an archive never contains an SSD that contradicts its FMUs.
     `system_connectors` False leaves the system's own connectors out of the SSD, for ecos and
     libcosim, which refuse connections to them (ssd.py).
+
+    Parameters
+    ----------
+    system : System
+        The system; every component's `fmu` must be a file.
+    path : str or Path
+        The archive (``.ssp``), replaced whole if it exists: never half-written.
+    system_connectors : bool, optional
+        Whether the SSD holds the system's own connectors.
+
+    Returns
+    -------
+    Path
+        The archive written (`path`).
+
+    Raises
+    ------
+    SspError
+        The system is inconsistent, a component has no FMU file, a connector contradicts
+        its FMU, or two components name one source with different files.
     """
     path = Path(path)
     check_system(system)
@@ -224,6 +244,24 @@ def read_ssp(path: str | Path, extract_dir: str | Path | None = None) -> System:
     archive is refused; the components' ``fmu`` paths point into it, so the returned system
     can be simulated directly. Errors name the archive and the member, e.g.
     ``rig.ssp!SystemStructure.ssd:12: <ssd:Connection ...>: ...``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The archive.
+    extract_dir : str or Path, optional
+        Where to unpack it (created if needed; the caller removes it).
+
+    Returns
+    -------
+    System
+        The system, its components' `fmu` paths in the unpacked folder.
+
+    Raises
+    ------
+    SspError
+        The archive, its SSD or an SSV is not acceptable, an FMU it names is missing, or
+        it is past the size limits.
     """
     path = Path(path)
     if extract_dir is not None:

@@ -25,7 +25,23 @@ _PYTHON_TYPES = {"Real": (float, int), "Integer": (int,), "Boolean": (bool,), "S
 
 
 def check_system(system: System, locator: Locator | None = None) -> None:
-    """Raise SspError at the first inconsistency of `system`."""
+    """Check a system before it is written or run: the names XML can hold, connections
+    naming existing connectors, each input fed once, values for parameters that exist,
+    every unit defined.
+
+    Parameters
+    ----------
+    system : System
+        The system.
+    locator : Locator, optional
+        Where each part of the system was read from, so that an error names the file, line
+        and element; a system built in memory is named by its parts instead.
+
+    Raises
+    ------
+    SspError
+        At the first inconsistency.
+    """
     locator = locator or Locator(f"system {system.name!r}")
     if not system.parameter_set:
         raise locator.error(("system",), "system", "the parameter set needs a name")

@@ -17,7 +17,21 @@ from pendfmu.ssp.model import KINDS, Connector, FmuComponent, ParameterValue, Un
 
 @dataclass(frozen=True)
 class FmuDescription:
-    """The parts of an FMU's model description an SSD uses."""
+    """The parts of an FMU's model description an SSD uses.
+
+    Attributes
+    ----------
+    path : Path
+        The FMU file.
+    guid : str
+        Its GUID.
+    connectors : tuple of Connector
+        Its inputs, outputs and parameters.
+    units : dict of str to Unit
+        The definitions of the units it declares, by name.
+    starts : dict of str to ParameterValue
+        The start values of its parameters, by name.
+    """
 
     path: Path
     guid: str
@@ -65,7 +79,24 @@ def _describe(path: Path, mtime_ns: int, size: int) -> FmuDescription:
 
 
 def describe_fmu(path: str | Path) -> FmuDescription:
-    """The FMU's connectors (inputs, outputs, parameters), unit definitions and parameter starts."""
+    """The FMU's connectors (inputs, outputs, parameters), unit definitions and parameter
+    starts, parsed once per version of the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The FMU file.
+
+    Returns
+    -------
+    FmuDescription
+        What an SSD needs of the FMU.
+
+    Raises
+    ------
+    FileNotFoundError
+        No file at `path`.
+    """
     path = Path(path).resolve()
     if not path.is_file():
         raise FileNotFoundError(f"no FMU at {path} (build the component FMUs with `python -m pendfmu build`)")
@@ -75,7 +106,26 @@ def describe_fmu(path: str | Path) -> FmuDescription:
 
 def fmu_component(name: str, fmu: str | Path, source: str | None = None,
                   implementation: str = "any") -> FmuComponent:
-    """A component for the FMU at `fmu`, with a connector for each input, output and parameter."""
+    """A system component for an FMU file, with a connector for each input, output and
+    parameter.
+
+    Parameters
+    ----------
+    name : str
+        The component's name in the system.
+    fmu : str or Path
+        The FMU file.
+    source : str, optional
+        The URI the SSD writes, relative to it; ``resources/<file name>`` by default, as
+        inside an SSP archive.
+    implementation : str, optional
+        "any", "CoSimulation" or "ModelExchange".
+
+    Returns
+    -------
+    FmuComponent
+        The component, its `fmu` set.
+    """
     description = describe_fmu(fmu)
     return FmuComponent(name, source or f"resources/{Path(fmu).name}", description.connectors,
                         implementation, Path(fmu))

@@ -11,8 +11,10 @@ from pendfmu.ssp.model import Connection, Connector, DefaultExperiment, FmuCompo
 
 RIG_COMPONENTS = ("CurrentLoop", "Cart", "Pendulum")
 
-# One pendulum sits on the cart: its mass and centre-of-mass distance appear in both the
-# Cart (back-drive force) and the Pendulum (its dynamics) and must be the same number.
+#: The parameters two rig components share, set in both whenever either is given: one
+#: pendulum sits on the cart, so its mass m_p [kg] and pivot-to-centre-of-mass distance
+#: l [m] appear in the Cart (back-drive force) and the Pendulum (its dynamics) and must be
+#: the same number.
 SHARED_PARAMETERS = ("m_p", "l")
 
 DRIVE = (("CurrentLoop.I_mean", "Cart.I"), ("Cart.a", "Pendulum.a"))
@@ -27,8 +29,23 @@ BACK_DRIVE = (("Pendulum.phi", "Cart.phi"), ("Pendulum.w", "Cart.w"), ("Pendulum
 
 
 def rig_connections(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> list[Connection]:
-    """Current -> cart -> pendulum, and for a back-drivable screw the pendulum's state back to the cart
-    (eta_back: the Cart's parameter, -1 for MODEL.md's A(eta); README, Drives)."""
+    """The connections between the rig's components: current -> cart -> pendulum, and for a
+    back-drivable screw the pendulum's state back to the cart.
+
+    Parameters
+    ----------
+    eta : float
+        The screw efficiency [-].
+    eta_back : float, optional
+        The Cart's eta_back parameter: -1 for MODEL.md's A(eta) (back-drivable above
+        eta = 0.5), 0 for self-locking, > 0 for back-drivable with that efficiency
+        (README, Drives).
+
+    Returns
+    -------
+    list of Connection
+        2 connections for a self-locking screw, 5 for a back-drivable one.
+    """
     pairs = DRIVE + (BACK_DRIVE if back_drive_efficiency(eta, eta_back) > 0.0 else ())
     return [Connection.between(start, end) for start, end in pairs]
 
@@ -120,6 +137,37 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
     `parameters` maps "name" (every component that has it) or "Component.name" to a value
     in the FMU's unit; m_p and l always go to both Cart and Pendulum. The default step size
     is the sensors' sample period (0.2 ms).
+
+    Parameters
+    ----------
+    eta : float
+        The screw efficiency [-]; it sets the Cart's eta.
+    fmu_dir : str or Path
+        The folder of CurrentLoop.fmu, Cart.fmu and Pendulum.fmu.
+    parameters : dict, optional
+        Values by "name" or "Component.name", in the FMU's (SI) units; every other
+        parameter keeps its FMU's start value (all are written into the system).
+    start_time, stop_time : float, optional
+        The default experiment's start and stop [s].
+    step_size : float, optional
+        The default experiment's communication step [s].
+    name : str, optional
+        The system's name.
+    parameter_set : str, optional
+        The parameter set's name.
+
+    Returns
+    -------
+    System
+        The rig, its FMUs referred to as ``resources/<Name>.fmu``.
+
+    Raises
+    ------
+    ValueError
+        A name no component has, a value that is not a number, or a value outside its
+        parameter's range.
+    FileNotFoundError
+        An FMU is missing from `fmu_dir`.
     """
     fmu_dir = Path(fmu_dir)
     fmus = {c: describe_fmu(fmu_dir / f"{c}.fmu") for c in RIG_COMPONENTS}

@@ -142,9 +142,29 @@ def write_ssd(system: System, path: str | Path, *, system_connectors: bool = Tru
     (`system_connectors`: see the module docstring).
 
     The system is checked (connections name existing connectors, ...) and every document
-    validated against its schema before anything is written. Returns the files written,
-    the SSD first. SSV files go to ``resources/`` next to the SSD, as in an SSP archive,
-    so the directory is an unpacked SSP once the FMUs are copied there too.
+    validated against its schema before anything is written. SSV files go to
+    ``resources/`` next to the SSD, as in an SSP archive, so the directory is an unpacked
+    SSP once the FMUs are copied there too.
+
+    Parameters
+    ----------
+    system : System
+        The system.
+    path : str or Path
+        The SSD file.
+    system_connectors : bool, optional
+        Whether the SSD holds the system's own connectors (False for ecos and libcosim,
+        which refuse connections to them).
+
+    Returns
+    -------
+    list of Path
+        The files written, the SSD first.
+
+    Raises
+    ------
+    SspError
+        The system is inconsistent, or a document fails its schema.
     """
     path = Path(path)
     check_system(system)
@@ -263,7 +283,26 @@ def read_ssd(path: str | Path, *, require_fmus: bool = False) -> System:
     connection naming an unknown component or connector, an input driven twice, a value
     for a parameter that does not exist... raise SspError naming file, line and element.
     Where a component's FMU is present (relative to the SSD) its connectors are checked
-    against the FMU's variables; with `require_fmus` a missing FMU is an error too.
+    against the FMU's variables.
+
+    Parameters
+    ----------
+    path : str or Path
+        The SSD file.
+    require_fmus : bool, optional
+        Whether a component's missing FMU is an error too.
+
+    Returns
+    -------
+    System
+        The system, with its parameter values; a component's `fmu` is set where the file
+        is present.
+
+    Raises
+    ------
+    SspError
+        A file fails its schema or the system is inconsistent; the message names file,
+        line and element.
     """
     path = Path(path)
     root = read_validated(path, SSD_SCHEMA).getroot()

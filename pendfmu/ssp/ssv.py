@@ -59,7 +59,25 @@ def parameter_set_element(parameter_set: ParameterSet, file: Path | str | None =
 
 
 def write_ssv(parameter_set: ParameterSet, path: str | Path) -> Path:
-    """Write `parameter_set` to `path` as an SSV file, validated against the SSV schema first."""
+    """Write a parameter set as an SSV file, validated against the SSV schema first.
+
+    Parameters
+    ----------
+    parameter_set : ParameterSet
+        The values and their units.
+    path : str or Path
+        The SSV file; its folder is created if needed.
+
+    Returns
+    -------
+    Path
+        The SSV file written (`path`).
+
+    Raises
+    ------
+    SspError
+        The document fails the schema.
+    """
     path = Path(path)
     data = serialize_validated(parameter_set_element(parameter_set, path), path, SSV_SCHEMA)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -102,6 +120,22 @@ def read_parameter_set(path: Path) -> tuple[ParameterSet, dict[str, etree._Eleme
 
 
 def read_ssv(path: str | Path) -> ParameterSet:
-    """Read an SSV file, validated against the SSV schema; errors name file, line and element."""
+    """Read an SSV file, validated against the SSV schema.
+
+    Parameters
+    ----------
+    path : str or Path
+        The SSV file.
+
+    Returns
+    -------
+    ParameterSet
+        Its values and unit definitions.
+
+    Raises
+    ------
+    SspError
+        The file fails the schema; the message names file, line and element.
+    """
     path = Path(path)
     return read_parameter_set(path)[0]
