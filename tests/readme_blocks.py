@@ -1,23 +1,30 @@
-"""The README's code blocks, as the README test runs them (tests/test_readme_runs.py).
+"""The code blocks of the README and of the documentation site's pages, as their tests run
+them (tests/test_readme_runs.py, tests/test_docs_site.py).
 
-The README's rule, stated at its top: every ``sh`` and ``python`` block runs as written, in
+The rule, stated at the README's top: every ``sh`` and ``python`` block runs as written, in
 order, in a checkout after the two commands and ``. .venv/bin/activate``; a ``text`` block
 is a template (its CAPITALS are placeholders) or a command for another machine; an
 ``output`` block right after a runnable block lists lines its run prints (``...`` stands
-for lines left out). The first block, the two commands themselves, is the set-up the test
-already stands in.
+for lines left out). The README's first block, the two commands themselves, is the set-up
+the test already stands in. A docs page (MyST Markdown) also has directives, fenced as
+```{name} with the directive's arguments on the fence's line: they are not code.
 """
 
 from __future__ import annotations
 
+import os
 import re
+import subprocess
+import sys
 import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[1]
 RUNNABLE = ("sh", "python")
-# A fence may be indented (a block inside a list item); its lines are then dedented.
-FENCE = re.compile(r"^([ \t]*)```([\w-]*)[ \t]*\n(.*?)^\1```[ \t]*$", re.M | re.S)
+# A fence may be indented (a block inside a list item); its lines are then dedented. Its
+# language is a word, or a MyST directive ({name}) followed by its arguments.
+FENCE = re.compile(r"^([ \t]*)```(?:(\{[\w:-]+\})[^\n]*|([\w-]*)[ \t]*)\n(.*?)^\1```[ \t]*$", re.M | re.S)
 
 
 @dataclass(frozen=True)
@@ -26,29 +33,58 @@ class Block:
     code: str
     line: int  # of the opening fence, 1-based
     expected: tuple[str, ...] = ()  # the lines of the output block that follows, if any
+    page: str = "README.md"  # the file, as labels name it
 
     @property
     def label(self) -> str:
-        return f"README.md:{self.line} ({self.language})"
+        return f"{self.page}:{self.line} ({self.language})"
 
 
-def blocks(readme: Path) -> list[Block]:
-    """Every fenced block, an output block attached to the runnable block before it."""
+def blocks(readme: Path, page: str | None = None) -> list[Block]:
+    """Every fenced block, an output block attached to the runnable block before it; `page`
+    names the file in labels (default: its name)."""
     text = readme.read_text()
+    page = page or readme.name
     found: list[Block] = []
     for match in FENCE.finditer(text):
-        language = match.group(2)  # output as printed: a table's common indent is part of it
-        code = match.group(3) if language == "output" else textwrap.dedent(match.group(3))
+        language = match.group(2) or match.group(3)  # output as printed: a table's common indent is part of it
+        code = match.group(4) if language == "output" else textwrap.dedent(match.group(4))
         line = text.count("\n", 0, match.start()) + 1
         if language == "output" and found and found[-1].language in RUNNABLE:
             previous = found.pop()
             expected = tuple(l.rstrip() for l in code.splitlines() if l.strip() and l.strip() != "...")
-            found.append(Block(previous.language, previous.code, previous.line, expected))
+            found.append(Block(previous.language, previous.code, previous.line, expected, page))
         else:
-            found.append(Block(language, code, line))
+            found.append(Block(language, code, line, page=page))
     return found
 
 
-def runnable(readme: Path) -> list[Block]:
-    """The blocks the test runs: sh and python, without the first (the two commands)."""
-    return [b for b in blocks(readme) if b.language in RUNNABLE][1:]
+def runnable(readme: Path, setup: int = 1, page: str | None = None) -> list[Block]:
+    """The blocks the test runs: sh and python, without the first `setup` ones (the
+    README's first is the two commands; a docs page has none: setup=0)."""
+    return [b for b in blocks(readme, page) if b.language in RUNNABLE][setup:]
+
+
+def scratch(folder: Path) -> Path:
+    """Links to the checkout's tracked top-level entries and its built FMUs only: what the
+    blocks' commands write (rec/, rig.json, report/, ...) must land here, never in a
+    checkout where someone followed the README by hand."""
+    tracked = subprocess.run(["git", "-C", str(ROOT), "ls-files"], capture_output=True, text=True, check=True)
+    for name in sorted({line.split("/", 1)[0] for line in tracked.stdout.splitlines()} | {"fmus"}):
+        if (ROOT / name).exists():
+            (folder / name).symlink_to(ROOT / name)
+    (folder / ".venv").symlink_to(Path(sys.executable).parent.parent)  # the environment running the tests
+    return folder
+
+
+def run(block: Block, cwd: Path, code: str) -> subprocess.CompletedProcess:
+    """One block's `code` (the block's own, or as a test changed it) run in `cwd`, with the
+    project's venv first on PATH as `. .venv/bin/activate` puts it."""
+    bin_dir = Path(sys.executable).parent
+    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}",
+           "VIRTUAL_ENV": str(bin_dir.parent)}
+    env.pop("PYTHONPATH", None)
+    command = ["bash", "-e", "-o", "pipefail", "-c", code] if block.language == "sh" else \
+        [str(bin_dir / "python"), "-"]
+    return subprocess.run(command, input=None if block.language == "sh" else code, cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=900)

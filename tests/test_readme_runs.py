@@ -19,15 +19,14 @@ and every other line, is checked in both; the point estimates are the same eithe
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from foreign.recordings import FITTED, TRUTH
 from readme_blocks import RUNNABLE, blocks, runnable
+from readme_blocks import run as _run
+from readme_blocks import scratch as _scratch
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
@@ -38,29 +37,6 @@ WALKTHROUGH_FIT = "pendfmu fit all rec --out rig.json --report report"
 SHORTENED = {WALKTHROUGH_FIT: " --uncertainty jacobian",
              'pendfmu.fit("cart", cart, params={"T_i": 4.5e-4}, seed=1': ', uncertainty="jacobian"',
              "--out out/foreign/fitted.json --report out/foreign/report": " --uncertainty jacobian"}
-
-
-def _scratch(folder: Path) -> Path:
-    """Links to the checkout's tracked top-level entries and its built FMUs only: what the
-    README's commands write (rec/, rig.json, report/, ...) must land here, never in a
-    checkout where someone followed the README by hand."""
-    tracked = subprocess.run(["git", "-C", str(ROOT), "ls-files"], capture_output=True, text=True, check=True)
-    for name in sorted({line.split("/", 1)[0] for line in tracked.stdout.splitlines()} | {"fmus"}):
-        if (ROOT / name).exists():
-            (folder / name).symlink_to(ROOT / name)
-    (folder / ".venv").symlink_to(Path(sys.executable).parent.parent)  # the environment running the tests
-    return folder
-
-
-def _run(block, cwd: Path, code: str) -> subprocess.CompletedProcess:
-    bin_dir = Path(sys.executable).parent  # the project's venv, as `. .venv/bin/activate` puts it first
-    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}",
-           "VIRTUAL_ENV": str(bin_dir.parent)}
-    env.pop("PYTHONPATH", None)
-    command = ["bash", "-e", "-o", "pipefail", "-c", code] if block.language == "sh" else \
-        [str(bin_dir / "python"), "-"]
-    return subprocess.run(command, input=None if block.language == "sh" else code, cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=900)
 
 
 def _walk(folder: Path, shortened: bool) -> Path:
