@@ -9,19 +9,8 @@ searched for to move the outputs and show events (stimulus.py), and say what the
 (exercise.py). Each check gives `CheckResult(name, verdict, figure, message)` rows (PASS, WARN,
 FAIL, INCONCLUSIVE: nothing exercised); see battery.run_battery."""
 
+from pendfmu.check.battery import run_battery
 from pendfmu.check.fmu import CheckResult
+from pendfmu.check.reference import compare
 
 __all__ = ["CheckResult", "compare", "run_battery"]
-
-
-def run_battery(*args, **kwargs):
-    from pendfmu.check.battery import run_battery as run
-
-    return run(*args, **kwargs)
-
-
-def compare(*args, **kwargs):
-    """pendfmu.check.reference.compare: results inside the reference's tolerance tube."""
-    from pendfmu.check.reference import compare as tube_compare
-
-    return tube_compare(*args, **kwargs)

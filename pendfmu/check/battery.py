@@ -31,16 +31,57 @@ def run_battery(path: str | Path, stop: float | None = None, step: float | None 
                 ttol: float | None = None, plot_dir: str | Path | None = None,
                 input_limit: float = DEFAULT_INPUT_LIMIT, order: float | None = None,
                 step_rtol: float = DEFAULT_STEP_RTOL, time_limit: float = TIME_LIMIT) -> list[CheckResult]:
-    """Every check on the FMU at `path`; `only` picks checks by module name ("static",
-    "sequence", "events", "determinism", "rollback", "convergence", "inputs", "reference");
-    `recording` a CSV (time first; a whole recording: columns that are not inputs are
-    ignored) that drives the runs instead of the stimulus the search finds (stimulus.py:
-    inputs without a declared range up to `input_limit` times their nominal). `order`: the
-    order of the fixed-step solver the FMU is built around, `step_rtol`: how far a result may
-    move with the communication step (convergence.py). `reference` a CSV of reference results
-    compared inside a tolerance tube (atol, rtol, ttol; pendfmu/check/reference.py), else the
-    reference results the FMU carries (FMI-LS-REF), if any; `plot_dir` gets a PNG per failing
-    variable. `time_limit`: seconds each check group may take in its child process."""
+    """Run every check (or the chosen ones) on an FMU, for each interface it has: what
+    `pendfmu check` runs. Each check group runs in a child process, so an FMU that crashes
+    or hangs fails its rows, and the battery goes on.
+
+    Parameters
+    ----------
+    path : str or Path
+        The FMU file (FMI 2.0 or 3.0).
+    stop : float, optional
+        The end of the runs [s]; by default the recording's last time, else the default
+        experiment's stop time, else 1 s.
+    step : float, optional
+        The communication step [s]; by default the default experiment's, else stop/500.
+    only : tuple of str, optional
+        The checks to run, by module name: "static", "sequence", "events", "determinism",
+        "rollback", "convergence", "inputs", "reference"; all by default.
+    recording : str or Path, optional
+        A CSV (time first; a whole recording: columns that are not inputs are ignored) that
+        drives the runs instead of the stimulus the search finds (stimulus.py).
+    reference : str or Path, optional
+        A CSV of reference results compared inside a tolerance tube; by default the
+        reference results the FMU carries (FMI-LS-REF), if any.
+    atol, rtol : float, optional
+        The tube's absolute half-width (in each variable's unit) and relative one (of
+        max(|reference|, the variable's nominal, else the reference column's range)).
+    ttol : float, optional
+        The tube's time tolerance [s]; by default a tenth of the median sample interval.
+    plot_dir : str or Path, optional
+        Where a PNG per failing variable of the reference check goes.
+    input_limit : float, optional
+        How far the stimulus drives an input without a declared range, in multiples of its
+        nominal.
+    order : float, optional
+        The order of the fixed-step solver the FMU is built around (convergence.py).
+    step_rtol : float, optional
+        How far a result may move with the communication step, of its nominal or range
+        (convergence.py).
+    time_limit : float, optional
+        The seconds each check group may take in its child process.
+
+    Returns
+    -------
+    list of CheckResult
+        One row per check and interface (several for some checks).
+
+    Raises
+    ------
+    BadInput
+        The file is not an FMU pendfmu can read, `stop` and `step` do not fit
+        (0 < step < stop), or the reference CSV cannot be read.
+    """
     target = Target(path, stop, step, recording)
     target.input_limit, target.stated_order, target.step_rtol = input_limit, order, step_rtol
     known = reference_mod.read_reference_csv(reference, target) if reference is not None else None

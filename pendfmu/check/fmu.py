@@ -38,9 +38,26 @@ exercised nothing the check could judge (the reason says what was missing)."""
 
 @dataclass
 class CheckResult:
-    """One row of the battery: its name, its verdict (VERDICTS; True and False are PASS and
-    FAIL), the measured figure (a short text: what was exercised and what was measured) and
-    what a user should know (why it did not pass)."""
+    """One row of the battery: a check's name, its verdict, what it measured and, when it
+    did not pass, why.
+
+    Attributes
+    ----------
+    name : str
+        The check, e.g. "determinism: fresh instances CS".
+    verdict : str
+        "PASS", "WARN", "FAIL" or "INCONCLUSIVE" (VERDICTS); True and False given to the
+        constructor become PASS and FAIL.
+    figure : str
+        A short text: what was exercised and what was measured.
+    message : str
+        What a user should know: why it did not pass, or what a WARN means.
+
+    Raises
+    ------
+    ValueError
+        A verdict that is not one of VERDICTS.
+    """
     name: str
     verdict: str | bool
     figure: str = ""
@@ -54,7 +71,7 @@ class CheckResult:
 
     @property
     def passed(self) -> bool:
-        """Nothing wrong found and something exercised: PASS or WARN."""
+        """Whether nothing wrong was found and something was exercised: PASS or WARN."""
         return self.verdict in (PASS, WARN)
 
 

@@ -151,12 +151,41 @@ def compare(times, reference: Mapping[str, np.ndarray], result: Mapping[str, np.
             atol: float = DEFAULT_ATOL, rtol: float = DEFAULT_RTOL, ttol: float | None = None,
             nominal: Mapping[str, float] | None = None, plot_dir: str | Path | None = None,
             label: str = "") -> list[CheckResult]:
-    """One row per variable of `reference`: the result (same times) inside the tube?
+    """Whether results already computed lie inside the reference's tolerance tube, one row
+    per variable of the reference.
 
-    `nominal` maps names to the floor of the relative tolerance (a name it lacks: the
-    reference column's range, max - min). `ttol` None: a tenth of the median sample
-    interval. With `plot_dir` a PNG per failing variable (reference, tube, result and the
-    violations). `label` is appended to each row's name (" CS", " ME")."""
+    At each time t the tube spans the reference's values over [t - ttol, t + ttol],
+    widened by atol + rtol * max(|reference|, nominal); a failing row names the worst
+    point, by how much it is missed and how many samples are outside.
+
+    Parameters
+    ----------
+    times : array_like of float
+        The times [s] of both the reference's and the result's rows.
+    reference : mapping of str to ndarray
+        The reference values by variable name.
+    result : mapping of str to ndarray
+        The results by variable name, at the same times; a reference variable missing here
+        fails its row.
+    atol : float, optional
+        The tube's absolute half-width, in each variable's unit.
+    rtol : float, optional
+        Its relative half-width.
+    ttol : float, optional
+        The time tolerance [s]; None: a tenth of the median sample interval.
+    nominal : mapping of str to float, optional
+        Per variable, the floor of the relative tolerance; a name it lacks: the reference
+        column's range, max - min.
+    plot_dir : str or Path, optional
+        Where a PNG per failing variable goes (reference, tube, result and the violations).
+    label : str, optional
+        Appended to each row's name (" CS", " ME").
+
+    Returns
+    -------
+    list of CheckResult
+        One row per variable of `reference`: PASS inside the tube, else FAIL.
+    """
     times = np.asarray(times, dtype=float)
     if ttol is None:
         ttol = default_ttol(times)
