@@ -6,7 +6,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test acceptance fmus tools clean
+.PHONY: demo test acceptance docs fmus tools clean
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(sys.version_info < (3, 11))' || { echo "pendfmu needs Python >= 3.11: run make PYTHON=/path/to/python3.11" >&2; exit 2; }
@@ -21,6 +21,12 @@ fmus: $(STAMP)
 
 demo: fmus
 	$(PY) -m pendfmu demo
+
+# The documentation site, into docs/_build/html: warnings are errors and every link and reference
+# must resolve (docs/build.py, the one home of how it is built; make test builds it too, in
+# tests/test_docs_site.py). Its reference pages are generated from the code at build time.
+docs: $(STAMP)
+	$(PY) docs/build.py
 
 # Two pytest-xdist workers, a module whole on one (--dist loadfile; tests/conftest.py): the fits' own worker pools
 # leave a core idle in their serial phases (local refinement, validation, subprocesses), which
@@ -56,4 +62,4 @@ tools:
 	  || echo "warning: libtbb12 could not be installed; the ecos tests will be skipped" >&2
 
 clean:
-	rm -rf $(VENV) fmus out .pytest_cache build dist
+	rm -rf $(VENV) fmus out .pytest_cache build dist docs/_build
