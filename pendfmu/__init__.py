@@ -35,6 +35,8 @@ Recording, read_recording, write_recording
     Recorded time responses (CSV + sidecar JSON, or MATLAB .mat).
 """
 
+#: pendfmu's version, written here once (pyproject.toml reads it); results record it in their
+#: provenance, and a built FMU's GUID depends on it.
 __version__ = "0.1.0"
 
 _API = {

@@ -36,13 +36,13 @@ import pytest
 from numpydoc.docscrape import ClassDoc, FunctionDoc
 
 # The modules whose public names make the API reference.
-DOCUMENTED = ["pendfmu.report", "pendfmu.simulator", "pendfmu.export", "pendfmu.recording", "pendfmu.fmubuild",
-              "pendfmu.testing", "pendfmu.ssp", "pendfmu.check"]
+DOCUMENTED = ["pendfmu", "pendfmu.report", "pendfmu.simulator", "pendfmu.export", "pendfmu.recording",
+              "pendfmu.fmubuild", "pendfmu.testing", "pendfmu.ssp", "pendfmu.check"]
 
 # Documented modules whose docstrings are still being written: their test is expected to fail
 # (strictly: once it passes, the module moves to DOCUMENTED). pendfmu.control is being
 # reworked elsewhere; its docstrings come with that work.
-PENDING = ["pendfmu", "pendfmu.control"]
+PENDING = ["pendfmu.control"]
 
 
 def public_names(module) -> dict[str, str]:

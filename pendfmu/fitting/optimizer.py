@@ -34,6 +34,29 @@ from pendfmu.fitting.workers import cost_and_failures, penalized, worker_cost, w
 
 @dataclass
 class GlobalOptions:
+    """The global search's settings, and where a fit's simulations run.
+
+    The global search is scipy's differential evolution over the free parameters' search
+    boxes; its best candidate (and the start values) are then refined by least squares. It
+    keeps a fit from settling in the nearest local minimum of a stick-slip cost.
+
+    Attributes
+    ----------
+    enabled : bool
+        Whether the global search runs; without it only the start values are refined.
+    popsize : int
+        Candidates per free parameter in each generation (differential evolution's
+        popsize).
+    maxiter : int
+        The most generations.
+    workers : int
+        Worker processes for the candidates and the bootstrap refits; 0: the environment
+        variable PENDFMU_WORKERS if set, else one per core.
+    scheduler : str or None
+        A Dask scheduler's address: candidates are evaluated on its workers instead; None
+        for local processes.
+    """
+
     enabled: bool = True
     popsize: int = 8  # candidates per free parameter
     maxiter: int = 25

@@ -51,12 +51,27 @@ def kinds(flags) -> list[str]:
 
 @dataclass
 class Estimate:
-    """One fitted quantity.
+    """One fitted quantity, with its uncertainty and what the user must know about it.
 
-    `ci95` is the 95 % interval (an unbounded side is +-inf; None when none could be
-    given), `method` says what gave it ("jacobian", "bootstrap", "bounded", ...), `low`
-    and `high` are the search bounds, `flags` what the user must know about it (Flag: a
-    text with a kind)."""
+    Attributes
+    ----------
+    label : str
+        The quantity's name: a parameter (``k_fwc``), or a per-recording estimate with
+        its recording (``phi0[run1]``).
+    value : float
+        The estimate, in the parameter's SI unit (MODEL.md).
+    stderr : float or None
+        Its standard error; None when none could be given.
+    ci95 : tuple of (float, float) or None
+        The 95 % interval (an unbounded side is +-inf); None when none could be given.
+    low, high : float
+        The search bounds (NaN in a result read back without them).
+    flags : list of str
+        What the user must know about it: Flag objects, a text with a kind (FLAG_KINDS).
+    method : str
+        What gave the interval: "jacobian", "bootstrap", "sandwich", "bounded", ...
+        ("none" for a value read back without one).
+    """
 
     label: str
     value: float
@@ -91,6 +106,66 @@ class ExperimentFit:
 
 @dataclass
 class FitResult:
+    """A fit's values, intervals, flags, warnings and provenance: what :func:`pendfmu.fit`
+    returns and a result file holds (:meth:`write_json`, :func:`read_result`).
+
+    A plain container: what the numbers mean lives beside the code that computes them, how
+    they are shown lives in the report (pendfmu.report).
+
+    Attributes
+    ----------
+    stage : str
+        What was fitted: "current", "cart", "pendulum", "all" (the paper's sequence), or a
+        user's model's name.
+    parameters : dict of str to float
+        Every value the fit ran with, fitted and known, by name (SI units, MODEL.md).
+    estimates : dict of str to Estimate
+        The fitted ones, by label (``k_fwc``; ``phi0[run1]`` for one recording's own).
+    correlation : dict of str to dict of str to float
+        The estimates' correlations, by label and label (None where a standard error is 0
+        or undefined).
+    cost : float
+        Half the sum of the squared residuals, each divided by its signal's error scale (in
+        "all", the stages' sum).
+    nrmse : dict of str to float
+        Per signal (``"cart.x"`` in "all"), the RMS error over all recordings divided by
+        the recorded range.
+    nfev : int
+        The cost evaluations (simulations) the fit made.
+    failures : int
+        The simulations that failed and were penalized.
+    seconds : float
+        The fit's wall time [s].
+    experiments : list of ExperimentFit
+        Per recording fitted, its recorded and simulated signals, for reports.
+    initial : dict of str to dict of str to float
+        Per recording, its estimated initial states.
+    notes : list of str
+        What the fit did that the user should know (failed simulations, a lost worker).
+    validation : dict of str to dict of str to float
+        Per recording predicted but not fitted, its errors (e.g. ``"phi_rms_steps"``).
+    warnings : list of str
+        What looks wrong (mis-scaled data, residuals far above the noise, an estimate at a
+        bound, a value assumed for want of a sidecar): printed on the console, and with
+        --strict a non-zero exit code.
+    uncertainty : dict
+        How the intervals were made (method, replicates, time).
+    model : str or None
+        A user's FMU or SSP file; None for pendfmu's own components.
+    replicates : list of dict of str to float
+        Per bootstrap replicate, the rig values its refits found (this stage's and, in
+        "all", the earlier stages' of the same replicate): later stages start from them,
+        and `pendfmu control` verifies its design on them.
+    provenance : dict
+        Where it came from: inputs with sha256, seed, bounds, start values, free and fixed
+        sets, versions, date, command line (fitting/provenance.py).
+    predicted : list of ExperimentFit
+        The recordings predicted with the result but not fitted.
+    assessment : dict
+        Whether the fit can be trusted: ``{"verdict": "adequate" | "model-inadequate" |
+        "fit-failed", "evidence": [...]}``.
+    """
+
     stage: str
     parameters: dict[str, float]  # every value the stage ran with, fitted and known
     estimates: dict[str, Estimate]  # the fitted ones, by label
@@ -126,17 +201,34 @@ class FitResult:
 
     @property
     def stderr(self) -> dict[str, float | None]:
+        """Each estimate's standard error, by label (None where there is none)."""
         return {k: e.stderr for k, e in self.estimates.items()}
 
     @property
     def ci95(self) -> dict[str, tuple[float, float] | None]:
+        """Each estimate's 95 % interval, by label (None where there is none)."""
         return {k: e.ci95 for k, e in self.estimates.items()}
 
     @property
     def flags(self) -> dict[str, list[str]]:
+        """The flags of each flagged estimate, by label."""
         return {k: e.flags for k, e in self.estimates.items() if e.flags}
 
     def to_dict(self) -> dict:
+        """The result as the result file's JSON document.
+
+        Long signals are reduced to their display envelope (with each signal's RMS error
+        and residual diagnostics of every sample kept beside it): enough to re-render and
+        compare reports.
+
+        Returns
+        -------
+        dict
+            ``parameters``, ``stderr``, ``ci95`` (an unbounded side is null),
+            ``interval_method``, ``correlation``, ``flags``, ``flag_kinds``, ``initial``,
+            ``fit`` (the statistics, notes, warnings, assessment), ``provenance``,
+            ``recordings``, ``predicted`` and, after a bootstrap, ``replicates``.
+        """
         shared = {k: e for k, e in self.estimates.items() if not is_own(k)}
         return {
             "parameters": dict(self.parameters),
@@ -163,6 +255,18 @@ class FitResult:
         }
 
     def write_json(self, path: str | Path) -> Path:
+        """Write the result file: :meth:`to_dict` as JSON, written whole or not at all.
+
+        Parameters
+        ----------
+        path : str or Path
+            The file, replaced if it exists.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         return write_atomically(path, json.dumps(self.to_dict(), indent=2, allow_nan=False, default=_plain) + "\n")
 
 
@@ -222,9 +326,27 @@ def _experiment_from(entry: dict) -> ExperimentFit:
 
 
 def read_result(path: str | Path) -> FitResult:
-    """A result file (write_json) read back. Files written before provenance and
-    recordings were stored read as results without them; per-recording estimates
-    (phi0[run1]), whose intervals the file does not keep, come back without intervals."""
+    """Read a result file (:meth:`FitResult.write_json`) back.
+
+    Files written before provenance and recordings were stored read as results without
+    them; per-recording estimates (phi0[run1]), whose intervals the file does not keep, come
+    back without intervals.
+
+    Parameters
+    ----------
+    path : str or Path
+        The result file (JSON).
+
+    Returns
+    -------
+    FitResult
+        The result; search bounds the file does not hold are NaN.
+
+    Raises
+    ------
+    BadInput
+        The file cannot be read, is not JSON, or is not a result file of pendfmu fit.
+    """
     from pendfmu.errors import BadInput
 
     path = Path(path)

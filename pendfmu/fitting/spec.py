@@ -151,18 +151,38 @@ class FitSpec:
 
     @property
     def seed_value(self) -> int:
+        """The global search's seed as used: `seed`, or 0 when not given."""
         return 0 if self.seed is None else self.seed
 
     @property
     def replicate_count(self) -> int:
+        """The bootstrap replicates as used: `replicates`, or REPLICATES (24) when not given."""
         return REPLICATES if self.replicates is None else self.replicates
 
     def with_options(self, **changes) -> FitSpec:
-        """A copy with some fields changed (a stage of 'all', a pass of the ripple fit)."""
+        """A copy with some fields changed (a stage of 'all', a pass of the ripple fit).
+
+        Parameters
+        ----------
+        **changes
+            New values by field name; they are checked as the constructor checks them.
+
+        Returns
+        -------
+        FitSpec
+            The copy; this specification is unchanged (it is frozen).
+        """
         return replace(self, **changes)
 
     def request(self) -> dict:
-        """The specification as plain JSON, as provenance records it: enough to repeat the fit."""
+        """The specification as plain JSON, as provenance records it: enough to repeat the fit.
+
+        Returns
+        -------
+        dict
+            Every field by name, as JSON values: recordings and files as their paths, a
+            loaded model as its source file, tuples as lists.
+        """
         document = {}
         for item in fields(self):
             value = getattr(self, item.name)

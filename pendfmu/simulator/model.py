@@ -73,7 +73,43 @@ class Instance:
 
 @dataclass
 class Model:
-    """Instances, connections, and the variables a fit names (module docstring)."""
+    """Instances, connections, and the variables a fit names (module docstring).
+
+    Build one with :meth:`from_fmu`, :meth:`from_ssp`, :meth:`load` or
+    :meth:`of_components`; the constructor reads every FMU's model description and refuses
+    one without Co-Simulation.
+
+    Attributes
+    ----------
+    name : str
+        The model's name, as results and messages name it.
+    instances : dict of str to Instance
+        The FMUs by instance name: each with its model identifier (`kind`) and its file
+        (`fmu`, None for a pendfmu component built from source).
+    connections : list of Wire
+        Outputs feeding inputs between instances.
+    shared : bool
+        Whether a bare parameter name sets every component that has it (pendfmu's rig,
+        whose components share m_p and l); otherwise a bare name two components have is
+        ambiguous.
+    boundary : dict of str to dict of str to list of Port
+        An SSP system's own connectors: per causality ("input", "output"), each
+        connector's name with the ports it feeds or reads. These names come first: they are
+        the interface the system declares.
+    variables : dict of Port to Variable
+        Every Real parameter, input and output (and Integer and Boolean parameter) of every
+        instance, with what its model description declares (start, range, unit).
+    order : list of list of str
+        The instances in the order they step; a group of several is coupled.
+    loops : list of list of str
+        The algebraic loops (cycles of direct feedthrough), as "Instance.variable" lists in
+        signal order.
+
+    Raises
+    ------
+    ModelError
+        An FMU with no Co-Simulation interface.
+    """
 
     name: str
     instances: dict[str, Instance]
@@ -121,7 +157,23 @@ class Model:
 
     @classmethod
     def load(cls, model: str | Path | Model) -> Model:
-        """A Model from an FMU or SSP file (or the Model itself)."""
+        """A model from a file by its suffix, as every command and `fit` take one.
+
+        Parameters
+        ----------
+        model : str or Path or Model
+            An FMU (``.fmu``) or SSP (``.ssp``) file; a Model is returned as it is.
+
+        Returns
+        -------
+        Model
+            :meth:`from_fmu` or :meth:`from_ssp` of the file.
+
+        Raises
+        ------
+        ModelError
+            Any other suffix, or a file that cannot be read.
+        """
         if isinstance(model, Model):
             return model
         path = Path(model)
@@ -133,7 +185,25 @@ class Model:
 
     @classmethod
     def from_fmu(cls, path: str | Path, name: str | None = None) -> Model:
-        """A model of one FMU file (one instance, named by its model identifier)."""
+        """A model of one FMU file (one instance, named by its model identifier).
+
+        Parameters
+        ----------
+        path : str or Path
+            An FMI 2.0 FMU with Co-Simulation (exported from Simulink, OpenModelica, ...).
+        name : str, optional
+            The model's name; the model identifier by default.
+
+        Returns
+        -------
+        Model
+            The model, not `shared`: a bare name is the FMU's variable.
+
+        Raises
+        ------
+        ModelError
+            No such file, not a readable FMU, not FMI 2.0, or Model Exchange only.
+        """
         path = Path(path)
         if not path.is_file():
             raise ModelError(f"{path}: no such FMU file")
@@ -151,8 +221,27 @@ class Model:
     @classmethod
     def from_ssp(cls, path: str | Path) -> Model:
         """A model of an SSP system (an .ssp archive): its FMU components and connections.
+
         Its parameter set's values become the parameters' start values (`defaults`); its own
-        input and output connectors are names of the component ports they are wired to."""
+        input and output connectors are names of the component ports they are wired to.
+
+        Parameters
+        ----------
+        path : str or Path
+            The SSP archive; it is unpacked into a temporary folder (pendfmu.ssp.read_ssp).
+
+        Returns
+        -------
+        Model
+            The system's components and connections, named as the system names them.
+
+        Raises
+        ------
+        SspError
+            The archive or its files are not acceptable.
+        ModelError
+            A component FMU that pendfmu cannot run (Model Exchange only).
+        """
         from pendfmu.ssp import read_ssp
 
         system = read_ssp(path)
@@ -175,25 +264,65 @@ class Model:
 
     @classmethod
     def of_components(cls, name: str, kinds: Mapping[str, str], connections: Sequence[Wire] = ()) -> Model:
-        """A model of pendfmu's own components (instance -> component type)."""
+        """A model of pendfmu's own components, built from source when missing.
+
+        Parameters
+        ----------
+        name : str
+            The model's name, e.g. "cart" for the cart stage.
+        kinds : mapping of str to str
+            Instance name -> component ("CurrentLoop", "Cart", "Pendulum", "Controller").
+        connections : sequence of Wire, optional
+            Outputs feeding inputs between the instances.
+
+        Returns
+        -------
+        Model
+            The model, `shared`: a bare parameter name (m_p, l) sets every component that
+            has it, as MODEL.md specifies.
+        """
         return cls(name, {n: Instance(n, k) for n, k in kinds.items()}, list(connections), shared=True)
 
     # -- names
 
     def instantiated_once_per_process(self) -> bool:
         """Whether an FMU of the model declares canBeInstantiatedOnlyOncePerProcess (then a
-        fit keeps one instance of it, and runs no simulation in a second thread)."""
+        fit keeps one instance of it, and runs no simulation in a second thread).
+
+        Returns
+        -------
+        bool
+            True when one of the model's FMU files declares it.
+        """
         return any(instance.fmu is not None and once_per_process(instance.description())
                    for instance in self.instances.values())
 
     def names(self, causality: str) -> list[str]:
-        """The names a fit may use for the model's parameters, free inputs or outputs."""
+        """The names a fit may use for the model's parameters, free inputs or outputs.
+
+        Parameters
+        ----------
+        causality : str
+            "parameter", "input" (the inputs no connection feeds) or "output".
+
+        Returns
+        -------
+        list of str
+            Every qualified name ("Instance.variable"), the bare names that are unambiguous
+            (or shared) and a system's own connector names.
+        """
         return list(self._names[causality])
 
     def drive_names(self) -> list[str]:
-        """The inputs a recording's equally named columns drive unless told otherwise: the
-        system's own inputs where it declares them (so a column feeds each input once, through
-        the system's interface), else every free input's unambiguous bare name."""
+        """The inputs a recording's equally named columns drive unless told otherwise.
+
+        Returns
+        -------
+        list of str
+            The system's own inputs where it declares them (so a column feeds each input
+            once, through the system's interface), else every free input's unambiguous bare
+            name.
+        """
         declared = [name for name in self.boundary.get("input", {}) if name in self._names["input"]]
         if declared:
             return declared
@@ -201,7 +330,23 @@ class Model:
 
     def interpolates(self, name: str) -> bool:
         """Whether every FMU an input name drives can interpolate its inputs between
-        communication points (canInterpolateInputs): what a linear drive needs."""
+        communication points (canInterpolateInputs): what a linear drive needs.
+
+        Parameters
+        ----------
+        name : str
+            An input's name (as :meth:`names` lists them).
+
+        Returns
+        -------
+        bool
+            True when every FMU it drives declares canInterpolateInputs.
+
+        Raises
+        ------
+        ModelError
+            An unknown or ambiguous name.
+        """
         for port in self.resolve(name, "input"):
             cosimulation = self.instances[port.instance].description().coSimulation
             if cosimulation is None or not cosimulation.canInterpolateInputs:
@@ -209,8 +354,26 @@ class Model:
         return True
 
     def resolve(self, name: str, causality: str) -> list[Port]:
-        """The ports a name stands for; an unknown or ambiguous name is a ModelError that
-        lists the valid names."""
+        """The ports a name stands for.
+
+        Parameters
+        ----------
+        name : str
+            A qualified ("Instance.variable"), bare or system connector name.
+        causality : str
+            "parameter", "input" or "output".
+
+        Returns
+        -------
+        list of Port
+            One port, or several for a shared parameter or a system connector that feeds
+            several inputs.
+
+        Raises
+        ------
+        ModelError
+            An unknown or ambiguous name; the message lists the valid names.
+        """
         found = self._names[causality].get(name)
         if found is None:
             valid = ", ".join(n for n in self._names[causality] if "." not in n or self._ambiguous(n, causality))
@@ -226,8 +389,20 @@ class Model:
         return self._names[causality].get(qualified.split(".", 1)[1]) == []
 
     def split(self, values: Mapping[str, float]) -> dict[str, dict[str, float]]:
-        """Parameter values by instance. Names the model does not have are left out (a
-        rig parameter dictionary covers every component; only the model's are used)."""
+        """Parameter values by instance, as each FMU is given them.
+
+        Parameters
+        ----------
+        values : mapping of str to float
+            Values by parameter name. Names the model does not have are left out (a rig
+            parameter dictionary covers every component; only the model's are used).
+
+        Returns
+        -------
+        dict of str to dict of str to float
+            Per instance name (every instance, perhaps with none), its values by variable
+            name.
+        """
         per: dict[str, dict[str, float]] = {name: {} for name in self.instances}
         for name, value in values.items():
             for port in self._names["parameter"].get(name) or ():
@@ -235,16 +410,55 @@ class Model:
         return per
 
     def port(self, name: str, causality: str) -> Port:
+        """The one port a name stands for (an input or output a recording's column maps).
+
+        Parameters
+        ----------
+        name : str
+            A qualified, bare or system connector name.
+        causality : str
+            "parameter", "input" or "output".
+
+        Returns
+        -------
+        Port
+            The port.
+
+        Raises
+        ------
+        ModelError
+            An unknown or ambiguous name.
+        ValueError
+            A name that stands for several ports (a shared parameter).
+        """
         (found,) = self.resolve(name, causality)
         return found
 
     def name_of(self, port: Port) -> str:
-        """The shortest name of a port: bare where that is unambiguous."""
+        """The shortest name of a port, as results and messages show it.
+
+        Parameters
+        ----------
+        port : Port
+            One of the model's `variables`.
+
+        Returns
+        -------
+        str
+            The bare name where that is unambiguous (or shared), else "Instance.variable".
+        """
         bare = self._names[self.variables[port].causality].get(port.variable)
         return port.variable if bare == [port] or (self.shared and bare and port in bare) else str(port)
 
     def defaults(self) -> dict[str, float]:
-        """Every parameter's start value by its shortest name (a shared name once)."""
+        """Every parameter's start value by its shortest name (a shared name once).
+
+        Returns
+        -------
+        dict of str to float
+            The start values the model descriptions declare (an SSP's parameter set
+            overrides them), in each variable's unit.
+        """
         values: dict[str, float] = {}
         for port, variable in self.variables.items():
             if variable.causality == "parameter" and variable.start is not None:
@@ -252,8 +466,23 @@ class Model:
         return values
 
     def parameter_problem(self, name: str, value: float) -> str | None:
-        """Why `value` cannot be parameter `name` (unknown, ambiguous, not finite, outside
-        the range the model description declares), or None."""
+        """Why a value cannot be a parameter's: the check a recording's sidecar and a fit's
+        values go through.
+
+        Parameters
+        ----------
+        name : str
+            The parameter's name.
+        value : float
+            The value, in the parameter's unit.
+
+        Returns
+        -------
+        str or None
+            Why not (unknown, ambiguous, not finite, not whole for an Integer, not 0 or 1
+            for a Boolean, outside the range the model description declares); None when
+            it can.
+        """
         try:
             ports = self.resolve(name, "parameter")
         except ModelError as error:
@@ -272,9 +501,22 @@ class Model:
         return None
 
     def vocabulary(self, columns: Iterable[str] = (), initial: Iterable[str] = ()) -> Vocabulary:
-        """The names a recording of this model may use: its inputs' and outputs' names,
-        the extra `columns` a fit maps them to, its parameters in the sidecar (checked
-        against the declared ranges) and the signals in `initial` (mapped to parameters)."""
+        """The names a recording of this model may use, for :func:`pendfmu.read_recording`.
+
+        Parameters
+        ----------
+        columns : iterable of str, optional
+            Column names besides the model's inputs and outputs: those a fit maps to them.
+        initial : iterable of str, optional
+            The signals whose initial values the sidecar may give (each mapped to a
+            parameter by the fit).
+
+        Returns
+        -------
+        Vocabulary
+            Its inputs' and outputs' names and `columns` as signals, its parameters in the
+            sidecar (checked against the declared ranges), `initial` as known states.
+        """
         signals = dict.fromkeys([*self.names("input"), *self.names("output"), *columns])
         return Vocabulary(tuple(signals), WithMeasurements(self.parameter_problem, tuple(signals)),
                           _KnownNames(tuple(initial)))
