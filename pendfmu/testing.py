@@ -473,8 +473,9 @@ def assert_deterministic(fmu, interface: str | None = None, *, stop=None, step=N
     step : float, optional
         The communication step [s]; by default the default experiment's, else stop/500.
     recording : str or Path, optional
-        A recording file (CSV, time first, or .mat) whose columns named like the FMU's
-        inputs drive them; without it the inputs keep their start values.
+        A CSV file (time first) whose columns named like the FMU's inputs drive them (the
+        others are ignored); without it, a stimulus the check searches for to move the
+        outputs (pendfmu.check.stimulus).
 
     Raises
     ------

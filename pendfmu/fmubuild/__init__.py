@@ -48,7 +48,7 @@ def ensure_fmu(name: str, fmi_version: int = 2) -> Path:
     Parameters
     ----------
     name : str
-        The component: "CurrentLoop", "Cart", "Pendulum" or "Controller".
+        The component: "CurrentLoop", "Cart", "Pendulum", ... (components.ALL_COMPONENTS).
     fmi_version : int, optional
         2 or 3.
 

@@ -93,15 +93,16 @@ class ComponentFMU:
     Parameters
     ----------
     name : str
-        A pendfmu component ("CurrentLoop", "Cart", "Pendulum", "Controller"), built from
-        source if needed; with `fmu`, the name the FMU is cached under.
+        A pendfmu component ("CurrentLoop", "Cart", "Pendulum", ...: components.ALL_COMPONENTS),
+        built from source if needed; with `fmu`, a label: the instance's name by default.
     parameters : mapping of str to float, optional
         Parameter values set in initialization mode (SI units, as the variable table
         declares them); the others keep the FMU's start values.
     start_time : float, optional
         The simulation's start time [s].
     log_events : bool, optional
-        Whether the FMU logs its events too (to `messages`), not only its errors.
+        Whether the FMU's debug logging is on (fmi2Instantiate's loggingOn): what it logs
+        then goes to `messages` too.
     fmu : str or Path, optional
         An FMI 2.0 Co-Simulation FMU file to run instead of the built component (an FMU
         from an SSP archive, an exported one, one pendfmu did not make).

@@ -114,8 +114,9 @@ def unpacked_fmu(name: str, fmu: str | Path | None = None, copy: int = 0) -> tup
     Parameters
     ----------
     name : str
-        The component ("CurrentLoop", "Cart", "Pendulum", "Controller"); without `fmu` it
-        is built from source if needed. With `fmu`, a label for the temporary folder.
+        A pendfmu component ("CurrentLoop", "Cart", "Pendulum", ...:
+        components.ALL_COMPONENTS); without `fmu` it is built from source if needed. With
+        `fmu`, a label for the temporary folder.
     fmu : str or Path, optional
         The FMU file to use instead (an FMU from an .ssp archive, or an exported,
         re-parameterized one).

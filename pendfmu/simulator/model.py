@@ -271,7 +271,8 @@ class Model:
         name : str
             The model's name, e.g. "cart" for the cart stage.
         kinds : mapping of str to str
-            Instance name -> component ("CurrentLoop", "Cart", "Pendulum", "Controller").
+            Instance name -> component ("CurrentLoop", "Cart", "Pendulum", ...:
+            components.ALL_COMPONENTS).
         connections : sequence of Wire, optional
             Outputs feeding inputs between the instances.
 

@@ -38,8 +38,8 @@ def rig_connections(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> list[Con
         The screw efficiency [-].
     eta_back : float, optional
         The Cart's eta_back parameter: -1 for MODEL.md's A(eta) (back-drivable above
-        eta = 0.5), 0 for self-locking, > 0 for back-drivable with that efficiency
-        (README, Drives).
+        eta = 0.5), 0 for self-locking, > 0 for back-drivable with that factor A on the
+        pendulum's push (README, Drives).
 
     Returns
     -------
