@@ -115,7 +115,7 @@ class FMUError(PendfmuError, RuntimeError):
         Returns
         -------
         str
-            One line.
+            The message, or "<where> failed: <what the FMU logged last>".
         """
         said = str(self)
         if said:

@@ -50,8 +50,9 @@ class GlobalOptions:
     maxiter : int
         The most generations.
     workers : int
-        Worker processes for the candidates and the bootstrap refits; 0: the environment
-        variable PENDFMU_WORKERS if set, else one per core.
+        Worker processes for the candidates and the bootstrap refits (and at most as many
+        threads for the local refinement's Jacobian); 0: the environment variable
+        PENDFMU_WORKERS if set, else one per core.
     scheduler : str or None
         A Dask scheduler's address: candidates are evaluated on its workers instead; None
         for local processes.

@@ -180,8 +180,9 @@ class FitSpec:
         Returns
         -------
         dict
-            Every field by name, as JSON values: recordings and files as their paths, a
-            loaded model as its source file, tuples as lists.
+            Every field by name, as JSON values: recordings as their paths, a target or
+            params that is not text or a mapping as its text (a file's path), tuples as
+            lists, the global search's settings as a mapping.
         """
         document = {}
         for item in fields(self):
