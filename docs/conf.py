@@ -35,6 +35,7 @@ exclude_patterns = ["_build", "_ext", "README.md"]
 
 # Warnings are errors (docs/build.py: -W --keep-going -n): every cross-reference must resolve.
 nitpicky = True
+smartquotes = False  # --out stays --out (not an en dash), 'x' stays as typed
 myst_heading_anchors = 3  # [text](page.md#a-heading) links to headings, checked like any other reference
 suppress_warnings: list[str] = []
 

@@ -4,7 +4,8 @@ __all__, in the order __all__ lists them (numpydoc renders the docstrings' secti
 The top level's names are pendfmu's lazy API table (pendfmu._API: each imported from its
 module on first use); autodoc reaches them through pendfmu.__getattr__ like any user. An
 object that more than one module exports (pendfmu.Recording is pendfmu.recording.Recording)
-is documented once, in the module nearest to its definition, and pointed to from the others.
+is documented once, in the module nearest to its definition; the others' name for it is a
+target of its own that points there.
 """
 
 from __future__ import annotations
@@ -86,16 +87,23 @@ def module_section(name: str, exports: list[tuple[str, str, object]], home: dict
     parts = [f"## `{name}`\n", "```{eval-rst}\n" + f".. module:: {name}\n" + "```\n"]
     if name != "pendfmu" and summary:
         parts.append(plain(" ".join(line.strip() for line in summary.splitlines())) + "\n")
-    pointers = []
     for _, attribute, value in (entry for entry in exports if entry[0] == name):
         full_name = f"{name}.{attribute}"
         if home.get(id(value), full_name) != full_name:
-            pointers.append(f"- `{attribute}`: {{py:obj}}`{home[id(value)]}`")
+            parts.append(_pointer(name, attribute, value, home[id(value)]))
         else:
             parts.append(_directive(full_name, value))
-    if pointers:
-        parts.append(f"Also exported by `{name}`, documented in their own module:\n\n" + "\n".join(pointers) + "\n")
     return "\n".join(parts)
+
+
+def _pointer(module: str, attribute: str, value, home: str) -> str:
+    """A name that another module's documentation describes: a target of its own (so that
+    a reference to pendfmu.read_recording resolves), saying where."""
+    kind = "exception" if inspect.isclass(value) and issubclass(value, BaseException) else \
+        "class" if inspect.isclass(value) else "function" if inspect.isroutine(value) else "data"
+    role = {"exception": "exc", "class": "class", "function": "func", "data": "data"}[kind]
+    return (f"```{{eval-rst}}\n.. py:{kind}:: {attribute}\n   :module: {module}\n   :no-index-entry:\n\n"
+            f"   The same object as :{role}:`{home}`, documented in its own module.\n```\n")
 
 
 def markdown(app=None) -> str:

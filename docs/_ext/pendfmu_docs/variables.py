@@ -42,8 +42,9 @@ def component_section(component, role: str) -> str:
         kind = variable.causality + ("" if variable.type == "Real" else f" ({variable.type})")
         rows.append([f"`{variable.name}`", kind, plain(variable.unit), number(variable.start), bounds(variable),
                      plain(variable.description)])
-    header = f"## {component.name}\n\n{plain(component.description)}. {role} `{component.name}.fmu`; " \
-             f"{len(component.variables)} variables, {component.event_indicators} event indicator(s).\n"
+    indicators = component.event_indicators
+    header = f"## {component.name}\n\n{plain(component.description)}.\n\n`{component.name}.fmu`, {role}: " \
+             f"{len(component.variables)} variables, {indicators or 'no'} event indicator{'' if indicators == 1 else 's'}.\n"
     return header + "\n" + table(["name", "causality", "unit", "start", "range", "description"], rows)
 
 
@@ -52,6 +53,6 @@ def markdown(app=None) -> str:
 
     parts = []
     for name, component in ALL_COMPONENTS.items():
-        role = "Part of the rig:" if name in COMPONENTS else "Used around the rig (a controller in the loop):"
+        role = "one of the rig's FMUs" if name in COMPONENTS else "used around the rig (a controller in the loop)"
         parts.append(component_section(component, role))
     return "\n".join(parts)
