@@ -11,7 +11,10 @@ Fitting: `fit all` on the standard virtual-rig set, and the current stage agains
 fit that calls fmpy.simulate_fmu inside scipy's least_squares.
 Also the cost's growth with recording length (1x, 2x, 4x).
 
-    python scripts/bench.py [--quick] [--end-to-end-only]
+    python scripts/bench.py [--quick] [--end-to-end-only] [--json PATH]
+
+With --json, the figures are written to PATH too, with the machine, the date and pendfmu's
+version: the documentation's Performance page is made from docs/performance.json, written so.
 """
 
 from __future__ import annotations
@@ -21,6 +24,9 @@ import contextlib
 import ctypes
 import importlib
 import io
+import json
+import os
+import platform
 import subprocess
 import sys
 import tempfile
@@ -38,6 +44,39 @@ from pendfmu.ssp import rig_system
 
 STEP = 2e-4
 COMMAND = 1.5
+
+
+class Figures:
+    """What a run measured, by part, for --json: each part's title and its figures (name,
+    value, unit), in the order they were printed."""
+
+    def __init__(self):
+        self.parts: dict[str, dict] = {}
+        self.load = os.getloadavg()[0]  # how busy the machine was when the run began (1-minute load average)
+
+    def part(self, key: str, title: str) -> None:
+        self.parts[key] = {"title": title, "figures": []}
+
+    def add(self, key: str, name: str, value: float, unit: str) -> None:
+        self.parts[key]["figures"].append({"name": name, "value": float(f"{value:.4g}"), "unit": unit})
+
+    def document(self, command: list[str]) -> dict:
+        """The JSON document: the run's machine, date, versions and command, and the parts."""
+        from importlib import metadata
+        from datetime import datetime, timezone
+
+        from pendfmu import __version__
+
+        libraries = {name: metadata.version(name) for name in ("numpy", "scipy", "fmpy")}
+        machine = {"platform": platform.platform(), "processor": platform.machine(), "cpus": os.cpu_count(),
+                   "python": platform.python_version(), **libraries,
+                   "load": [round(self.load, 2), round(os.getloadavg()[0], 2)]}  # 1-minute load average, first and last
+        return {"pendfmu": __version__, "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                "machine": machine, "command": " ".join(["python", "scripts/bench.py", *command]),
+                "parts": self.parts}
+
+
+FIGURES = Figures()
 
 
 def timed(function, *args, **kwargs):
@@ -126,8 +165,10 @@ def best_of(run, *args, **kwargs) -> tuple:
 
 
 def cosimulation(seconds: float) -> None:
-    print(f"co-simulation of the rig, {seconds:g} s at {STEP * 1e3:g} ms (3 FMUs, {seconds / STEP:.0f} steps), "
-          f"best of {REPEATS}:")
+    title = (f"co-simulation of the rig, {seconds:g} s at {STEP * 1e3:g} ms (3 FMUs, {seconds / STEP:.0f} steps), "
+             f"best of {REPEATS}")
+    print(f"{title}:")
+    FIGURES.part("cosimulation", title)
     with tempfile.TemporaryDirectory() as tmp:
         library = build_limit(Path(tmp))
         plain, phi_a = best_of(plain_fmpy_loop, seconds)
@@ -143,6 +184,13 @@ def cosimulation(seconds: float) -> None:
     print(f"  native master vs C limit:         {native / limit:6.2f}x slower")
     print(f"  (the ceiling: the C limit is {plain / limit:.1f}x faster than the plain fmpy loop)")
     print(f"  (same result: phi {phi_a:.6f} / {phi_b:.6f} / {phi_c:.6f}; (b) interpolates inputs, (a) and (c) hold)")
+    for name, value, unit in (("(a) plain fmpy loop", plain, "s"), ("(b) pendfmu master, python engine", python, "s"),
+                              ("(b) pendfmu master, native engine", native, "s"),
+                              ("(b) native, first run with instantiation", cold, "s"),
+                              ("(c) C loop (the limit)", limit, "s"),
+                              ("native master against the plain fmpy loop", plain / native, "x faster"),
+                              ("native master against the C limit", native / limit, "x slower")):
+        FIGURES.add("cosimulation", name, value, unit)
 
 
 END_TO_END_OUTPUTS = {"I": ("CurrentLoop", "I"), "x": ("Cart", "x"), "v": ("Cart", "v"), "a": ("Cart", "a"),
@@ -241,8 +289,10 @@ def command_line(recording: Path, out: Path) -> tuple[float, float]:
 
 def end_to_end(seconds: float = 20.0) -> float:
     """pendfmu simulate against a plain fmpy user's script on the same recording; the ratio."""
-    print(f"end to end: a {seconds:g} s recording of I_c at {STEP * 1e3:g} ms ({seconds / STEP + 1:.0f} samples), "
-          f"best of {REPEATS}:")
+    title = (f"end to end: a {seconds:g} s recording of I_c at {STEP * 1e3:g} ms ({seconds / STEP + 1:.0f} samples), "
+             f"best of {REPEATS}")
+    print(f"{title}:")
+    FIGURES.part("end_to_end", title)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         recording = step_recording(folder / "rec.csv", seconds)
@@ -267,6 +317,17 @@ def end_to_end(seconds: float = 20.0) -> float:
     print(f"  command line (new process): {whole:.3f} s, of which Python start-up and imports {start:.3f} s")
     print(f"  (same result: phi at the end {phi_plain:.6f} / {phi_ours:.6f}; the plain loop holds the coupled "
           f"inputs, simulate interpolates them)")
+    figures = [("pendfmu simulate, in-process, .csv", ours, "s"), ("pendfmu simulate, in-process, .mat", ours_mat, "s"),
+               ("pendfmu simulate, first run in the process", cold, "s"),
+               *((f"{name}, timed alone (simulate: loading the FMUs included)" if name == "simulate" else
+                  f"{name}, timed alone", value, "s") for name, value in stages.items()),
+               ("plain fmpy: read_csv, FMU2Slave loop, to_csv of time and phi", plain, "s"),
+               ("plain fmpy, writing simulate's six outputs", plain_all, "s"),
+               ("pendfmu simulate against plain fmpy", plain / ours, "x faster"),
+               ("the same, six outputs written by both", plain_all / ours, "x faster"),
+               ("command line, a new process", whole, "s"), ("of it: Python start-up and imports", start, "s")]
+    for name, value, unit in figures:
+        FIGURES.add("end_to_end", name, value, unit)
     return plain / ours
 
 
@@ -274,14 +335,18 @@ def scaling() -> None:
     """Times for 1x, 2x, 4x the length, and the straight line through them: a fixed cost per
     run (resetting the FMUs, building the frame) plus a cost per simulated second."""
     print("cost against recording length (native master, rig):")
+    FIGURES.part("scaling", "cost against recording length (native master, rig)")
     lengths = np.array([2.5, 5.0, 10.0])
     elapsed = np.array([best_of(timed, master_run, length, "native")[0] for length in lengths])
     for length, seconds in zip(lengths, elapsed):
         print(f"  {length / lengths[0]:.0f}x ({length:g} s): {seconds:.4f} s  ratio {seconds / elapsed[0]:.2f}")
+        FIGURES.add("scaling", f"{length / lengths[0]:.0f}x ({length:g} s simulated)", seconds, "s")
     per_second, fixed = np.polyfit(lengths, elapsed, 1)
     worst = np.max(np.abs(fixed + per_second * lengths - elapsed) / elapsed)
     print(f"  line: {fixed * 1e3:.2f} ms per run + {per_second * 1e3:.3f} ms per simulated second; "
           f"largest deviation from it {100 * worst:.1f} %")
+    FIGURES.add("scaling", "fixed cost per run", fixed * 1e3, "ms")
+    FIGURES.add("scaling", "cost per simulated second", per_second * 1e3, "ms")
 
 
 def naive_current_fit(path: Path, start: dict[str, float]) -> tuple[float, int, dict[str, float]]:
@@ -323,6 +388,12 @@ def fitting(quick: bool) -> None:
         ours, result = best_of(timed, fit, "current", [folder / "current-steps.csv"], start, harmonic="off",
                                global_search=GlobalOptions(enabled=False), progress=False, uncertainty="jacobian")
         print(f"current stage, local fit from the same start, best of {REPEATS}:")
+        FIGURES.part("fitting", f"current stage, local fit from the same start, best of {REPEATS}")
+        for name, value, unit in (("naive: fmpy.simulate_fmu inside least_squares", naive, "s"),
+                                  ("naive: simulations", calls, ""), ("pendfmu", ours, "s"),
+                                  ("pendfmu: simulations", result.nfev, ""),
+                                  ("pendfmu against naive", naive / ours, "x faster")):
+            FIGURES.add("fitting", name, value, unit)
         print(f"  naive (simulate_fmu in least_squares): {naive:6.3f} s, {calls} simulations")
         print(f"  pendfmu:                               {ours:6.3f} s, {result.nfev} simulations "
               f"-> {naive / ours:.1f}x faster ({naive / calls / (ours / result.nfev):.1f}x per simulation)")
@@ -331,6 +402,10 @@ def fitting(quick: bool) -> None:
             intervals = sum(u.get("seconds", 0.0) for u in result.uncertainty.values())
             print(f"fit all on the standard set: {wall:.1f} s wall, {result.nfev} simulations, "
                   f"{result.failures} failed; of it the bootstrap intervals {intervals:.1f} s")
+            FIGURES.part("fit_all", "fit all on the standard virtual-rig set (seed 1), bootstrap intervals")
+            for name, value, unit in (("wall time", wall, "s"), ("simulations", result.nfev, ""),
+                                      ("of it: the bootstrap intervals", intervals, "s")):
+                FIGURES.add("fit_all", name, value, unit)
 
 
 def foreign_fit() -> None:
@@ -363,8 +438,13 @@ def foreign_fit() -> None:
         theirs = min((baseline.fit(fmu, files, start, known) for _ in range(REPEATS)), key=lambda r: r["seconds"])
     worst = max(abs(result.parameters[p] / TRUTH[p] - 1) for p in FITTED)
     worst_theirs = max(abs(theirs["estimate"][p] / TRUTH[p] - 1) for p in FITTED)
-    print(f"foreign cart fit (6 parameters, 3 recordings of 8 s at 1 ms), local fits from the same start, "
-          f"best of {REPEATS}:")
+    title = (f"foreign cart fit (6 parameters, 3 recordings of 8 s at 1 ms), local fits from the same start, "
+             f"best of {REPEATS}")
+    print(f"{title}:")
+    FIGURES.part("foreign", title)
+    for name, value, unit in (("scipy least_squares over FMU2Slave", theirs["seconds"], "s"), ("pendfmu", mine, "s"),
+                              ("pendfmu against least_squares", theirs["seconds"] / mine, "x faster")):
+        FIGURES.add("foreign", name, value, unit)
     print(f"  scipy least_squares over FMU2Slave: {theirs['seconds']:6.3f} s, {theirs['simulations']} simulations, "
           f"largest error {100 * worst_theirs:.4f} %")
     print(f"  pendfmu:                            {mine:6.3f} s, {3 * result.nfev} simulations, "
@@ -407,6 +487,11 @@ def dask_scaling(stage: str = "pendulum") -> None:
                 times[workers], (_, _, nfev, _) = best_of(timed, global_search, residuals, len(free), 3, options)
     print(f"dask, global search of a {stage} fit on {chosen[0].name} ({nfev} simulations), best of {REPEATS}: "
           f"1 worker {times[1]:.1f} s, 2 workers {times[2]:.1f} s -> {times[1] / times[2]:.2f}x")
+    FIGURES.part("dask", f"dask, global search of a {stage} fit on {chosen[0].name} ({nfev} simulations), "
+                         f"best of {REPEATS}")
+    for name, value, unit in (("1 worker", times[1], "s"), ("2 workers", times[2], "s"),
+                              ("2 workers against 1", times[1] / times[2], "x faster")):
+        FIGURES.add("dask", name, value, unit)
 
 
 def main() -> None:
@@ -414,20 +499,25 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="skip the full fit-all timing")
     parser.add_argument("--end-to-end-only", action="store_true", help="only the pendfmu simulate comparison")
     parser.add_argument("--foreign-only", action="store_true", help="only the foreign FMU fit against plain scipy")
+    parser.add_argument("--json", metavar="PATH", help="also write the figures, the machine, the date and pendfmu's "
+                                                       "version to PATH (docs/performance.json: the docs' tables)")
     args = parser.parse_args()
     print(f"python {sys.version.split()[0]}; one run, on this machine now")
     if args.end_to_end_only:
         end_to_end()
-        return
-    if args.foreign_only:
+    elif args.foreign_only:
         foreign_fit()
-        return
-    cosimulation(10.0)
-    end_to_end()
-    scaling()
-    fitting(args.quick)
-    foreign_fit()
-    dask_scaling()
+    else:
+        cosimulation(10.0)
+        end_to_end()
+        scaling()
+        fitting(args.quick)
+        foreign_fit()
+        dask_scaling()
+    if args.json:
+        document = FIGURES.document(sys.argv[1:])
+        Path(args.json).write_text(json.dumps(document, indent=1) + "\n", encoding="utf-8")
+        print(f"figures written to {args.json}")
 
 
 if __name__ == "__main__":

@@ -45,7 +45,8 @@ def site(tmp_path_factory) -> tuple[Path, subprocess.CompletedProcess]:
 
 def test_the_site_builds_without_a_warning(site):
     output, built = site
-    assert built.returncode == 0, f"docs/build.py failed ({built.returncode}):\n{built.stdout[-4000:]}{built.stderr[-8000:]}"
+    assert built.returncode == 0, \
+        f"docs/build.py failed ({built.returncode}):\n{built.stdout[-4000:]}{built.stderr[-8000:]}"
     assert "WARNING" not in built.stderr and "ERROR" not in built.stderr, built.stderr[-8000:]
     for page in PAGES:  # every page is part of the site (a page outside every toctree warns)
         assert (output / page.relative_to(DOCS)).with_suffix(".html").is_file(), page

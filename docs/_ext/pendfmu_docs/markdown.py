@@ -40,12 +40,14 @@ def docstring(text: str) -> str:
     return "\n".join(parts)
 
 
-def table(header: list[str], rows: list[list[str]]) -> str:
-    """A pipe table of Markdown cells (a | left in a cell, in a code span too, is escaped)."""
+def table(header: list[str], rows: list[list[str]], right: tuple[int, ...] = ()) -> str:
+    """A pipe table of Markdown cells (a | left in a cell, in a code span too, is escaped);
+    the columns numbered in `right` aligned right (numbers)."""
 
     def cell(text: str) -> str:
         return re.sub(r"(?<!\\)\|", r"\\|", text.replace("\n", " "))
 
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    rule = "|" + "".join("---:|" if k in right else "---|" for k in range(len(header)))
+    lines = ["| " + " | ".join(header) + " |", rule]
     lines += ["| " + " | ".join(cell(text) for text in row) + " |" for row in rows]
     return "\n".join(lines) + "\n"

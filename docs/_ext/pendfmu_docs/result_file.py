@@ -4,9 +4,10 @@ Which fields there are is generated: a small FitResult, with every optional part
 is turned into the file's document by the code that writes result files
 (FitResult.to_dict), and a provenance record by the code that records it
 (pendfmu.fitting.provenance, on a stand-in for a solved problem). What each field means is
-written here, in FIELDS, for the file (the Python objects' docstrings describe the objects); a field the code writes that FIELDS does not describe, or one
-FIELDS describes that the code no longer writes, is a warning, so the build fails until the
-page is right again.
+written here, in FIELDS, for the file (the Python objects' docstrings describe the
+objects); a field the code writes that FIELDS does not describe, or one FIELDS describes
+that the code no longer writes, is a warning, so the build fails until the page is right
+again.
 """
 
 from __future__ import annotations

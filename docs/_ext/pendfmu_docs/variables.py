@@ -29,7 +29,8 @@ def bounds(variable) -> str:
         return ""
     low = "−∞" if variable.low is None else number(variable.low)
     high = "∞" if variable.high is None else number(variable.high)
-    text = f"{'(' if variable.low_open or variable.low is None else '['}{low}, {high}{']' if variable.high is not None else ')'}"
+    opening = "(" if variable.low_open or variable.low is None else "["
+    text = f"{opening}{low}, {high}{']' if variable.high is not None else ')'}"
     if variable.excluded:
         text += f" except ({number(variable.excluded[0])}, {number(variable.excluded[1])})"
     return text
@@ -43,8 +44,9 @@ def component_section(component, role: str) -> str:
         rows.append([f"`{variable.name}`", kind, plain(variable.unit), number(variable.start), bounds(variable),
                      plain(variable.description)])
     indicators = component.event_indicators
-    header = f"## {component.name}\n\n{plain(component.description)}.\n\n`{component.name}.fmu`, {role}: " \
-             f"{len(component.variables)} variables, {indicators or 'no'} event indicator{'' if indicators == 1 else 's'}.\n"
+    counted = f"{len(component.variables)} variables, {indicators or 'no'} event indicator" + \
+        ("" if indicators == 1 else "s")
+    header = f"## {component.name}\n\n{plain(component.description)}.\n\n`{component.name}.fmu`, {role}: {counted}.\n"
     return header + "\n" + table(["name", "causality", "unit", "start", "range", "description"], rows)
 
 
