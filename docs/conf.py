@@ -31,7 +31,7 @@ extensions = [
 
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}  # .rst: numpydoc's autosummary asks for it
 root_doc = "index"
-exclude_patterns = ["_build", "_ext", "README.md"]
+exclude_patterns = ["_build", "_ext"]
 
 # Warnings are errors (docs/build.py: -W --keep-going -n): every cross-reference must resolve.
 nitpicky = True
