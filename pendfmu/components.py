@@ -362,7 +362,8 @@ def _rig_controller_parameters() -> tuple[Variable, ...]:
         ("k_xs", "1/s2", "Swing-up: centring gain on x - x_ref"), ("k_vs", "1/s", "Swing-up: centring gain on v"),
         ("phi_catch", "rad", "Balance takes over within this angle of upright (and lets go at twice it)"),
         ("v_stuck", "m/s", "Friction compensation: below this speed the cart counts as stuck"),
-        ("F_ramp", "N", "Friction compensation: wanted force over which the breakaway builds up to F_Sc"),
+        ("F_ramp", "N", "Friction compensation: wanted force over which the breakaway builds up to F_Sc (a stuck "
+                   "self-locking cart wanted to push less while balancing gets no current)"),
         ("x_quantum", "m", "Input x rounded to a multiple of this before use (0: as given): an encoder emulated "
                            "when the loop is closed on a continuous model; leave 0 on the rig"),
         ("phi_quantum", "rad", "Input phi rounded to a multiple of this before use (0: as given), as x_quantum"),

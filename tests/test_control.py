@@ -80,6 +80,25 @@ def test_fmu_equals_the_python_law_sample_by_sample(eta, compensation, quantum, 
         assert np.max(np.abs(python - [long.step(x_k, phi_k, 0.01) for x_k, phi_k in zip(x, phi)])) > 1e-3
 
 
+def test_a_stuck_self_locking_cart_wanted_to_push_little_holds_itself_in_both_twins():
+    """Balancing on a self-locking screw, a still cart (x constant) under a pendulum that
+    leans a few encoder steps to and fro: while the wanted force is below F_ramp the command
+    is exactly 0 A (law.Controller.holds), beyond it the breakaway's current flows; the FMU
+    commands the same to 1e-9 A. On a back-drivable screw nothing holds."""
+    for eta, holds in ((0.4, True), (0.75, False)):
+        the_design = design({**rig_defaults(), "eta": eta}, Options(task="balance"))
+        t = T_S * np.arange(3000)
+        phi = DPHI * np.round(0.02 * np.sin(2 * math.pi * 0.5 * t) * np.exp(-t) / DPHI)
+        x = np.zeros_like(t)
+        law = Controller(the_design)
+        python = np.array([law.step(x_k, phi_k) for x_k, phi_k in zip(x, phi)])
+        with FMULaw(fmu_parameters(the_design)) as law_fmu:
+            fmu = np.array([law_fmu(x_k, phi_k) for x_k, phi_k in zip(x, phi)])
+        np.testing.assert_allclose(fmu, python, rtol=0, atol=1e-9)
+        held = python[500:] == 0.0
+        assert held.any() == holds and (not holds or (~held).any()), (eta, held.mean())
+
+
 def test_table_defaults_are_the_reference_rig():
     """The RigController's start values are MODEL.md's reference rig, as its design has them,
     and that design's gains and swing-up law to the table's 6 digits: the FMU as built is a

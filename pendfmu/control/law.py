@@ -6,7 +6,8 @@ the same operations in the same order. Each sample, from the encoder readings x 
 1. correct the predicted state with the innovations (Kalman gain L; phi's innovation wrapped);
 2. balance near upright (LQR), else (task swing-up) pump the pendulum's energy;
 3. turn the wanted drive force into a current, adding the friction the cart is believed to
-   have (compensation) and limiting it to +-I_max;
+   have (compensation) and limiting it to +-I_max; a stuck self-locking cart that is wanted
+   to push less than F_ramp while balancing gets none (holds);
 4. predict the next sample's state under that current (plant.RigModel.predict).
 """
 
@@ -48,7 +49,10 @@ class Controller:
         else:
             force = self.d.rig.cart_force(self.swing_acceleration(s, x_ref), s[1], s[2], s[3])
         rig = self.d.rig
-        cancelled = self.compensation(force, s[1])
+        if self.holds(force, s[1]):
+            force, cancelled = 0.0, 0.0
+        else:
+            cancelled = self.compensation(force, s[1])
         I_c = max(-self.d.I_max, min(self.d.I_max, (force + cancelled) / (rig.eta * rig.k_F)))
         self.cancelled = cancelled
         self.s = rig.predict(s, I_c, cancelled, self.d.T_s)
@@ -99,6 +103,16 @@ class Controller:
         if x * v > 0.0 and v * v >= 2.0 * d.a_swing * room:
             return -sgn(v) * d.a_swing
         return a
+
+    def holds(self, force: float, v: float) -> bool:
+        """Whether the cart is left to hold itself, with no current: balancing on a
+        self-locking screw (compensation on), stuck, and wanting less than F_ramp. Why: a
+        self-locking cart stays put unpowered, and the pendulum's own stiction holds it near
+        upright; a breakaway ramped in below F_ramp left such a cart stuck with current
+        flowing for good (1.1 steps from upright at 0.6 A on the table's rig 1, 1.3 A on rig
+        4), and a full one made it slip to and fro at 1 A (rig 3)."""
+        return (self.d.axis and self.d.compensation and self.mode == BALANCE and abs(v) <= self.d.v_stuck
+                and abs(force) < self.d.F_ramp)
 
     def compensation(self, force: float, v: float) -> float:
         """The cart's friction as identified: Coulomb against a sliding cart; a stuck one is

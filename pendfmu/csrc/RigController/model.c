@@ -12,7 +12,8 @@
  *      missing to upright, within a_swing, centring springs on the cart;
  *   3. add the friction the cart is believed to have (compensation: Coulomb against a sliding
  *      cart, the breakaway force, ramped in over F_ramp, for a stuck one) and limit the
- *      current to +-I_max: that is I_c, held until the next sample;
+ *      current to +-I_max: that is I_c, held until the next sample; balancing on a
+ *      self-locking screw, a stuck cart wanted to push less than F_ramp gets none (holds);
  *   4. predict the next sample's state under I_c (RK2, SUBSTEPS steps of MODEL.md's current
  *      loop, cart and pendulum, the compensated friction left out).
  *
@@ -138,6 +139,11 @@ static double swing_acceleration(const Instance *inst, const double *s, double x
     return within_track(inst, pump - R(k_xs) * (s[0] - x_ref) - R(k_vs) * s[1], s[0], s[1]);
 }
 
+/* law.py's holds: balancing on a self-locking screw, a stuck cart wanted to push less than F_ramp holds itself. */
+static bool holds(const Instance *inst, int mode, double force, double v) {
+    return FLAG(axis) && FLAG(compensation) && mode == BALANCE && fabs(v) <= R(v_stuck) && fabs(force) < R(F_ramp);
+}
+
 static double compensation(const Instance *inst, double force, double v) {
     if (!FLAG(compensation)) return 0.0;
     if (fabs(v) > R(v_stuck)) return R(F_Kc) * sgn(v);
@@ -184,9 +190,13 @@ void model_time_event(Instance *inst, double t, bool commit) {
     double s[N_S];
     correct(inst, store, quantized(R(x), R(x_quantum)), wrap(quantized(R(phi), R(phi_quantum))), s);
     const int mode = choose_mode(inst, s, (int)store[ST_MODE]);
-    const double force = mode == BALANCE ? balance_force(inst, s, R(x_ref), store[ST_CANCELLED])
-                                         : cart_force(inst, swing_acceleration(inst, s, R(x_ref)), s[1], s[2], s[3]);
-    const double cancelled = compensation(inst, force, s[1]);
+    double force = mode == BALANCE ? balance_force(inst, s, R(x_ref), store[ST_CANCELLED])
+                                   : cart_force(inst, swing_acceleration(inst, s, R(x_ref)), s[1], s[2], s[3]);
+    double cancelled = 0.0;
+    if (holds(inst, mode, force, s[1]))
+        force = 0.0;
+    else
+        cancelled = compensation(inst, force, s[1]);
     const double I_c = clamp((force + cancelled) / (R(eta) * R(k_F)), R(I_max));
     R(I_c) = I_c;
     if (!commit) return;
