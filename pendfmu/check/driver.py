@@ -266,27 +266,33 @@ class Driver:
         makes hundreds of thousands of calls)."""
         self._x, self._dx, self._z = np.zeros(self.nx), np.zeros(self.nx), np.zeros(self.nz)
         self._xp, self._dxp, self._zp = (a.ctypes.data_as(DOUBLE_P) for a in (self._x, self._dx, self._z))
+        # the C functions by name, called through the checked binding's one wrapper without
+        # fmpy's two layers of Python above it (half the cost of a call this small)
+        v = "fmi3" if self.fmi3 else "fmi2"
+        self._c = {"time": v + "SetTime", "set": v + "SetContinuousStates", "get": v + "GetContinuousStates",
+                   "derivatives": "fmi3GetContinuousStateDerivatives" if self.fmi3 else "fmi2GetDerivatives",
+                   "indicators": v + "GetEventIndicators"}
 
     def _states(self) -> np.ndarray:
         if self.nx:
-            self.fmu.getContinuousStates(self._xp, self.nx)
+            self.fmu.call(self._c["get"], self.fmu.component, self._xp, self.nx)
         return self._x.copy()
 
     def _set(self, t: float, x: np.ndarray) -> None:
-        self.fmu.setTime(t)
+        self.fmu.call(self._c["time"], self.fmu.component, t)
         if self.nx:
             self._x[:] = x
-            self.fmu.setContinuousStates(self._xp, self.nx)
+            self.fmu.call(self._c["set"], self.fmu.component, self._xp, self.nx)
 
     def _derivatives(self, t: float, x: np.ndarray) -> np.ndarray:
         self._set(t, x)
         if self.nx:
-            (self.fmu.getContinuousStateDerivatives if self.fmi3 else self.fmu.getDerivatives)(self._dxp, self.nx)
+            self.fmu.call(self._c["derivatives"], self.fmu.component, self._dxp, self.nx)
         return self._dx.copy()
 
     def _indicators(self) -> np.ndarray:
         if self.nz:
-            self.fmu.getEventIndicators(self._zp, self.nz)
+            self.fmu.call(self._c["indicators"], self.fmu.component, self._zp, self.nz)
         return self._z.copy()
 
     def _rk4(self, t: float, x: np.ndarray, h: float, budget: list | None = None) -> np.ndarray:
@@ -301,19 +307,19 @@ class Driver:
         if not self.nx:
             return x
         k1 = self._derivatives(t, x)
-        if not np.all(np.isfinite(k1)):
+        if not np.isfinite(k1).all():
             return x + h * k1
         with np.errstate(all="ignore"):  # overflowing stages are what the halving is for
             k2 = self._derivatives(t + h / 2, x + h / 2 * k1)
             k3 = self._derivatives(t + h / 2, x + h / 2 * k2)
             weight = 1.0 / (np.abs(x) + 1e-12)  # each state relative to its size: a small one can be the stiff one
-            spread = float(np.max(np.abs(k2 - k1) * weight))
-            noise = spread <= 1e-9 * float(np.max(np.abs(k1) * weight))  # stages equal to rounding: nothing to judge
-            stiffness = 0.0 if noise else 2 * float(np.max(np.abs(k3 - k2) * weight)) / spread
+            spread = float((np.abs(k2 - k1) * weight).max())
+            noise = spread <= 1e-9 * float((np.abs(k1) * weight).max())  # stages equal to rounding: nothing to judge
+            stiffness = 0.0 if noise else 2 * float((np.abs(k3 - k2) * weight).max()) / spread
             if stiffness <= STABLE:  # (False for NaN)
                 k4 = self._derivatives(t + h, x + h * k3)
                 x1 = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-                if np.all(np.isfinite(x1)):
+                if np.isfinite(x1).all():
                     return x1
         budget = budget if budget is not None else [MAX_SUBSTEPS]
         budget[0] -= 1
@@ -333,7 +339,7 @@ class Driver:
             x = self._states()
             self._set(t, x)
             z0 = self._indicators() > 0
-            if self.signs is not None and np.any(z0 != self.signs):
+            if self.signs is not None and (z0 != self.signs).any():
                 # an indicator changed sign with the inputs set at this communication point:
                 # the event is here, before integrating on
                 self._event_at_point()
@@ -357,7 +363,7 @@ class Driver:
         change (bisection); leaves the FMU there. Returns (that time, whether one crossed)."""
         dt = t_next - t
         self._set(t_next, self._rk4(t, x, dt))
-        crossed = bool(self.nz and np.any((self._indicators() > 0) != z0))
+        crossed = bool(self.nz and ((self._indicators() > 0) != z0).any())
         if not crossed:
             return t_next, False
         low, high = 0.0, dt
@@ -366,7 +372,7 @@ class Driver:
                 break
             mid = 0.5 * (low + high)
             self._set(t + mid, self._rk4(t, x, mid))
-            if np.any((self._indicators() > 0) != z0):
+            if ((self._indicators() > 0) != z0).any():
                 high = mid
             else:
                 low = mid
