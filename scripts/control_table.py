@@ -20,9 +20,9 @@ Measured (2026-11-27, the ten default seeds, each from its fit, 20 s runs, last 
 steps, 0.0-2.5 mm, 0.00-0.81 A). Swing-up met them on nine (capture 4.2-5.5 s, max |x| 266-279
 mm). The miss is the self-locking rig 3: after the catch its cart slips to and fro at 1.08 A
 RMS. Rigs 1 and 4 have met both since a stuck self-locking cart holds itself; the self-locking
-rigs' rows (1-5, compensation on) were run again for that rule, the others are untouched by it. Without compensation no run
-met them (balance 1.7-3.9 steps, 41-109 mm; no swing-up caught). The README's "From fit to
-controller" has the table.
+rigs' rows (1-5, compensation on) were run again for that rule, the others are untouched by
+it. Without compensation no run met them (balance 1.7-3.9 steps, 41-109 mm; no swing-up
+caught). The README's "From fit to controller" has the table.
 """
 
 from __future__ import annotations

@@ -85,14 +85,27 @@ def test_a_dostep_that_never_returns_is_a_fail_row_naming_the_time_limit(hostile
     assert refused.returncode == 2 and "--time-limit 0.0: needs a finite value > 0" in refused.stderr
 
 
+def spinning_child(process: subprocess.Popen, cpu: float = 0.5, wait: float = 60.0) -> list[int]:
+    """The check's one child process once it has computed for `cpu` s (spinning in the
+    FMU's fmi2DoStep that never returns); fails if the check ends or takes `wait` s first."""
+    from processes import children, cpu_seconds
+
+    deadline = time.monotonic() + wait
+    while time.monotonic() < deadline and process.poll() is None:
+        found = children(process.pid)
+        if len(found) == 1 and cpu_seconds(found[0]) >= cpu:
+            return found
+        time.sleep(0.05)
+    pytest.fail(f"the check's child never spun in fmi2DoStep (exit {process.poll()})")
+
+
 @pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGKILL], ids=["Ctrl-C", "kill -9"])
 def test_a_check_whose_fmu_hangs_ends_on_ctrl_c_or_kill_and_its_child_with_it(hostile, how):
     with subprocess.Popen([sys.executable, "-m", "pendfmu", "check", hostile["hang"], "--only", "events"],
                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                           env={**os.environ, "PYTHONPATH": str(REPO)}) as process:
         try:
-            time.sleep(3)  # well inside the hanging fmi2DoStep
-            children = Path(f"/proc/{process.pid}/task/{process.pid}/children").read_text().split()
+            children = spinning_child(process)  # inside the hanging fmi2DoStep (a fixed 3 s sleep missed it under load)
             process.send_signal(how)
             process.wait(timeout=10)
         finally:
