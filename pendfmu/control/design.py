@@ -33,9 +33,23 @@ ENCODER_COUNTS = 1024  # MODEL.md: both encoders, when no sidecar tells the reso
 
 @dataclass(frozen=True)
 class Weights:
-    """LQR weights as scales: the cart's position error [m], the pendulum's angle [rad], the
-    speeds [m/s, rad/s] and the cart acceleration [m/s^2] that each cost as much as the others
-    (Bryson's rule). A larger scale tolerates more of it."""
+    """LQR weights as scales: how much of each error costs as much as the others (Bryson's
+    rule). A larger scale tolerates more of it.
+
+    Attributes
+    ----------
+    x : float
+        The cart's position error [m].
+    phi : float
+        The pendulum's angle from upright [rad].
+    v : float
+        The cart's speed [m/s].
+    w : float
+        The pendulum's angular rate [rad/s].
+    a : float
+        The cart's acceleration [m/s^2]: the input's weight (on a back-drivable screw the
+        current that gives it, eta k_F / M per m/s^2).
+    """
 
     x: float = 0.02
     phi: float = 0.01
@@ -46,10 +60,28 @@ class Weights:
 
 @dataclass(frozen=True)
 class Options:
-    """What the user chooses: task ("balance" or "swing-up"), sample period T_s [s], current
-    limit I_max [A], track half-length x_max [m], weights, friction compensation, encoder
-    resolutions dx [m] and dphi [rad] (None: MODEL.md's encoders), and the estimator's
-    process noise: the force sigma_F [N] and torque sigma_T [N m] the model misses."""
+    """What the user chooses for a design (`pendfmu control`'s options).
+
+    Attributes
+    ----------
+    task : str
+        "balance" (from near upright) or "swing-up" (from hanging, then balance).
+    T_s : float
+        The sample period [s].
+    I_max : float
+        The current limit [A].
+    x_max : float
+        The track's half-length [m]: the swing-up brakes to stay within 0.9 of it.
+    weights : Weights
+        The LQR's weights.
+    compensation : bool
+        Whether the identified cart friction is compensated.
+    dx, dphi : float or None
+        The encoders' resolutions [m, rad] the estimator is designed for (None: MODEL.md's
+        1024-count encoders).
+    sigma_F, sigma_T : float
+        The estimator's process noise: the force [N] and torque [N m] the model misses.
+    """
 
     task: str = "balance"
     T_s: float = 1e-3
@@ -65,17 +97,42 @@ class Options:
 
 @dataclass(frozen=True)
 class Design:
-    """Everything the controller runs with, as flat numbers (the FMU's parameters).
+    """Everything the controller runs with, as flat numbers (the RigController FMU's parameters).
 
-    Attributes: the rig (RigModel's fields), the options' T_s, I_max, x_max, swing_up and
-    compensation; axis: the LQR commands an acceleration (self-locking) rather than a current;
-    K: the LQR gains on (x - x_ref, v, phi, w, a or I); L: the estimator's gains (5 x 2) on
-    the innovations of x and phi; the swing-up's energy gain k_E [m/s^2], its acceleration
-    limit a_swing and centring gains k_xs [1/s^2], k_vs [1/s]; phi_catch [rad], where balance
-    takes over; v_stuck [m/s], below which the cart counts as stuck, and F_ramp [N], the wanted
-    force over which the breakaway compensation builds up; dx [m] and dphi [rad], the encoders'
-    steps the estimator assumes; x_quantum [m] and phi_quantum [rad], the steps the inputs are
-    rounded to (0: none).
+    Attributes
+    ----------
+    rig : RigModel
+        The identified rig the design is for.
+    T_s, I_max, x_max : float
+        The options' sample period [s], current limit [A] and track half-length [m].
+    swing_up : bool
+        Whether the task swings up from hanging before balancing.
+    compensation : bool
+        Whether the identified cart friction is compensated.
+    axis : bool
+        The LQR commands the cart's acceleration (a self-locking screw) rather than the current.
+    K : tuple of float
+        The LQR gains on (x - x_ref, v, phi, w, a or I).
+    L : tuple of (float, float)
+        The estimator's gains (5 x 2) on the innovations of x and phi.
+    k_E : float
+        The swing-up's energy gain [m/s^2].
+    a_swing : float
+        The swing-up's acceleration limit [m/s^2].
+    k_xs, k_vs : float
+        The swing-up's centring gains [1/s^2, 1/s].
+    phi_catch : float
+        The angle from upright within which balance takes over [rad] (and lets go at twice it).
+    v_stuck : float
+        The speed below which the cart counts as stuck [m/s].
+    F_ramp : float
+        The wanted force over which the breakaway compensation builds up to F_Sc [N]; below
+        it a stuck self-locking cart holds itself while balancing (law.Controller.holds).
+    dx, dphi : float
+        The encoders' steps the estimator was designed for [m, rad] (verify.py emulates them).
+    x_quantum, phi_quantum : float
+        The steps the inputs are rounded to before use [m, rad]; 0: as given (on the rig,
+        whose readings are counts already).
     """
 
     rig: RigModel
@@ -139,7 +196,21 @@ def estimator_gain(rig: RigModel, options: Options, dx: float, dphi: float) -> n
 
 
 def design(parameters: Mapping[str, float], options: Options = Options()) -> Design:
-    """The controller for the rig of `parameters` (every rig parameter by MODEL.md name)."""
+    """The controller for an identified rig.
+
+    Parameters
+    ----------
+    parameters : Mapping[str, float]
+        Every rig parameter by its MODEL.md name (a fit result's values, as
+        fromfit.rig_values gives them).
+    options : Options
+        The task, limits, weights and encoders.
+
+    Returns
+    -------
+    Design
+        The gains and settings, ready for law.Controller or the RigController FMU.
+    """
     rig = RigModel.from_parameters(parameters)
     dx = options.dx or 2 * math.pi / (ENCODER_COUNTS * parameters["k_D"])
     dphi = options.dphi or 2 * math.pi / ENCODER_COUNTS

@@ -33,7 +33,24 @@ def quantized(value: float, step: float) -> float:
 
 
 class Controller:
-    """The sampled controller of a Design; `step(x, phi, x_ref)` returns the command I_c [A]."""
+    """The sampled controller of a Design; `step(x, phi, x_ref)` returns the command I_c [A].
+
+    Parameters
+    ----------
+    design : Design
+        The gains and settings (design.design).
+
+    Attributes
+    ----------
+    d : Design
+        The design it runs.
+    s : list of float or None
+        The state (x, v, phi, w, I) predicted for the coming sample; None before the first.
+    mode : int
+        SWING or BALANCE, as chosen at the last sample.
+    cancelled : float
+        The friction force the last command added [N].
+    """
 
     def __init__(self, design: Design):
         self.d = design
@@ -42,6 +59,23 @@ class Controller:
         self.cancelled = 0.0  # the force spent on friction at the last sample [N]
 
     def step(self, x: float, phi: float, x_ref: float = 0.0) -> float:
+        """One sample: estimate, choose the mode, command (the module's steps 1-4).
+
+        Parameters
+        ----------
+        x : float
+            The cart's encoder reading [m].
+        phi : float
+            The pendulum's encoder reading [rad], continuous (0 upright, pi hanging, any
+            multiple of 2 pi added).
+        x_ref : float
+            Where the cart should balance [m].
+
+        Returns
+        -------
+        float
+            The current command I_c [A], within +-I_max, held until the next sample.
+        """
         s = self.correct(quantized(x, self.d.x_quantum), wrap(quantized(phi, self.d.phi_quantum)))
         self.mode = self.choose_mode(s)
         if self.mode == BALANCE:
@@ -59,7 +93,18 @@ class Controller:
         return I_c
 
     def correct(self, x: float, phi: float) -> list[float]:
-        """The estimate after this sample's readings (the first sample starts at rest there)."""
+        """The estimate after this sample's readings (the first sample starts at rest there).
+
+        Parameters
+        ----------
+        x, phi : float
+            The readings [m, rad], phi wrapped into (-pi, pi].
+
+        Returns
+        -------
+        list of float
+            The corrected state (x, v, phi, w, I).
+        """
         if self.s is None:
             return [x, 0.0, phi, 0.0, 0.0]
         e_x, e_phi = x - self.s[0], wrap(phi - self.s[2])
@@ -69,14 +114,38 @@ class Controller:
 
     def choose_mode(self, s: list[float]) -> int:
         """Balance for the balance task; for swing-up, balance once within phi_catch of upright
-        and until the pendulum falls past twice that."""
+        and until the pendulum falls past twice that.
+
+        Parameters
+        ----------
+        s : list of float
+            The corrected state (x, v, phi, w, I).
+
+        Returns
+        -------
+        int
+            BALANCE or SWING.
+        """
         if not self.d.swing_up:
             return BALANCE
         limit = self.d.phi_catch if self.mode == SWING else 2.0 * self.d.phi_catch
         return BALANCE if abs(s[2]) < limit else SWING
 
     def balance_force(self, s: list[float], x_ref: float) -> float:
-        """The LQR's drive force: from an acceleration on the self-locking axis, or a current."""
+        """The LQR's drive force: from an acceleration on the self-locking axis, or a current.
+
+        Parameters
+        ----------
+        s : list of float
+            The corrected state (x, v, phi, w, I).
+        x_ref : float
+            Where the cart should balance [m].
+
+        Returns
+        -------
+        float
+            The wanted drive force on the cart [N], friction not yet added.
+        """
         rig, K = self.d.rig, self.d.K
         if self.d.axis:
             a = rig.accelerations(s[1], s[2], s[3], rig.eta * rig.k_F * s[4] - self.cancelled)[0]
@@ -87,7 +156,20 @@ class Controller:
 
     def swing_acceleration(self, s: list[float], x_ref: float) -> float:
         """The energy law: push the cart against w cos(phi) in proportion to the energy missing
-        to upright (E = 0 there), within a_swing, while springs pull the cart back to x_ref."""
+        to upright (E = 0 there), within a_swing, while springs pull the cart back to x_ref.
+
+        Parameters
+        ----------
+        s : list of float
+            The corrected state (x, v, phi, w, I).
+        x_ref : float
+            Where the springs pull the cart [m].
+
+        Returns
+        -------
+        float
+            The wanted cart acceleration [m/s^2], within the track (within_track).
+        """
         d, rig = self.d, self.d.rig
         E = 0.5 * rig.J * (s[3] * s[3]) + rig.m * rig.g * rig.l * (math.cos(s[2]) - 1.0)
         pump = d.k_E * E / (rig.m * rig.g * rig.l) * sgn(s[3] * math.cos(s[2]))
@@ -97,7 +179,20 @@ class Controller:
     def within_track(self, a: float, x: float, v: float) -> float:
         """The track limit: a cart heading for an end that could only just stop before
         TRACK_USE of the half-length at the swing's acceleration limit brakes at that limit
-        (else `a`). The swing-up is what travels far; balance stays near x_ref."""
+        (else `a`). The swing-up is what travels far; balance stays near x_ref.
+
+        Parameters
+        ----------
+        a : float
+            The wanted acceleration [m/s^2].
+        x, v : float
+            The cart's estimated position [m] and speed [m/s].
+
+        Returns
+        -------
+        float
+            `a`, or the braking acceleration [m/s^2].
+        """
         d = self.d
         room = TRACK_USE * d.x_max - abs(x)
         if x * v > 0.0 and v * v >= 2.0 * d.a_swing * room:
@@ -110,13 +205,39 @@ class Controller:
         self-locking cart stays put unpowered, and the pendulum's own stiction holds it near
         upright; a breakaway ramped in below F_ramp left such a cart stuck with current
         flowing for good (1.1 steps from upright at 0.6 A on the table's rig 1, 1.3 A on rig
-        4), and a full one made it slip to and fro at 1 A (rig 3)."""
+        4), and a full one made it slip to and fro at 1 A (rig 3).
+
+        Parameters
+        ----------
+        force : float
+            The wanted drive force [N].
+        v : float
+            The cart's estimated speed [m/s].
+
+        Returns
+        -------
+        bool
+            True: command no current this sample.
+        """
         return (self.d.axis and self.d.compensation and self.mode == BALANCE and abs(v) <= self.d.v_stuck
                 and abs(force) < self.d.F_ramp)
 
     def compensation(self, force: float, v: float) -> float:
         """The cart's friction as identified: Coulomb against a sliding cart; a stuck one is
-        broken away in the direction of the wanted force, the full stiction from F_ramp on."""
+        broken away in the direction of the wanted force, the full stiction from F_ramp on.
+
+        Parameters
+        ----------
+        force : float
+            The wanted drive force [N].
+        v : float
+            The cart's estimated speed [m/s].
+
+        Returns
+        -------
+        float
+            The friction force to add to the wanted force [N] (0 with compensation off).
+        """
         if not self.d.compensation:
             return 0.0
         rig = self.d.rig
