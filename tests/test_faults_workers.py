@@ -201,9 +201,9 @@ def test_the_reason_a_bootstrap_refit_failed_in_a_worker_reaches_the_note(cart_r
 def test_sigterm_writes_a_checkpoint_and_resume_ends_as_undisturbed(cart_recording, tmp_path, undisturbed):
     out = tmp_path / "fit.json"
     command = fit_command(cart_recording, out)
-    process = start_fit(command + ["--workers", "2"])
-    busy_workers(process, cpu=0.3)  # past the workers' start-up (about 0.1 s): some costs are in
-    process.send_signal(signal.SIGTERM)
+    process = start_fit(command + ["--workers", "2"], SAVING)
+    first_checkpoint(process, tmp_path / "fit.json.checkpoint")  # some costs are in (a CPU-time mark missed
+    process.send_signal(signal.SIGTERM)                          # a short search on a fast run)
     stdout, stderr = finish(process)
     assert process.returncode == 130, stderr
     assert "interrupted" in stdout and "interrupted" in json.loads(out.read_text())
@@ -213,6 +213,18 @@ def test_sigterm_writes_a_checkpoint_and_resume_ends_as_undisturbed(cart_recordi
     assert result_without_time(out) == undisturbed[0]
     assert calls["n"] == undisturbed[1] - cached  # what the checkpoint held was looked up, not simulated
     assert not (tmp_path / "fit.json.checkpoint").exists()
+
+
+SAVING = "import pendfmu.fitting.checkpoint as c\nc.SAVE_PERIOD = 0.3"
+"""A fit's prelude: its checkpoint saved every 0.3 s of the search (30 s in use)."""
+
+
+def first_checkpoint(process: subprocess.Popen, checkpoint: Path) -> None:
+    """Wait for the fit's first periodic checkpoint (SAVING): its search has costs by then."""
+    deadline = time.monotonic() + WAIT
+    while not checkpoint.exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert checkpoint.exists(), f"no checkpoint was written while the fit ran: {finish(process)}"
 
 
 def checkpoint_costs(path: Path) -> int:
@@ -229,11 +241,8 @@ def test_kill_9_after_a_periodic_checkpoint_loses_only_what_came_after(cart_reco
     out = tmp_path / "fit.json"
     checkpoint = tmp_path / "fit.json.checkpoint"
     command = fit_command(cart_recording, out)
-    process = start_fit(command + ["--workers", "2"], "import pendfmu.fitting.checkpoint as c\nc.SAVE_PERIOD = 0.3")
-    deadline = time.monotonic() + WAIT
-    while not checkpoint.exists() and process.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.02)
-    assert checkpoint.exists(), f"no checkpoint was written while the fit ran: {finish(process)}"
+    process = start_fit(command + ["--workers", "2"], SAVING)
+    first_checkpoint(process, checkpoint)
     os.killpg(process.pid, signal.SIGKILL)
     finish(process)
     assert process.returncode == -signal.SIGKILL and not out.exists()
