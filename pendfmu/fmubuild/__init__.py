@@ -3,6 +3,8 @@ FMI 3.0 into fmus/fmi3/."""
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from pendfmu.components import ALL_COMPONENTS
@@ -36,9 +38,14 @@ def build_all(force: bool = False, folder: Path | None = None, fmi_version: int 
     BuildError
         No C compiler, or the compiler refused the sources.
     """
-    return {name: build_fmu(component, force=force, fmi_version=fmi_version, folder=folder)
-            for name, component in progress(ALL_COMPONENTS.items(), f"building FMI {fmi_version} FMUs",
-                                            label=lambda item: item[0])}
+    # The components side by side, one per core (each already compiles its platforms side by
+    # side): a build from scratch took 61 s on two cores one component at a time, the win64
+    # cross-compiler's link-time optimization most of it, with a core idle.
+    with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
+        built = {name: pool.submit(build_fmu, component, force=force, fmi_version=fmi_version, folder=folder)
+                 for name, component in ALL_COMPONENTS.items()}
+        return {name: built[name].result()  # a BuildError is raised here, the others finished
+                for name in progress(built, f"building FMI {fmi_version} FMUs")}
 
 
 def ensure_fmu(name: str, fmi_version: int = 2) -> Path:
