@@ -31,12 +31,12 @@ docs: $(STAMP)
 # Two pytest-xdist workers, a module whole on one (--dist loadfile; tests/conftest.py): the fits' own worker pools
 # leave a core idle in their serial phases (local refinement, validation, subprocesses), which
 # the other worker fills. --no-loadscope-reorder keeps conftest's order (the longest modules
-# first): xdist's own puts the modules with the most tests first, and the README's 4 tests,
+# first): xdist's own puts the modules with the most tests first, and the docs' runner's tests,
 # 6 minutes, ran alone at the end.
 test: tools fmus
 	$(PY) -m pytest -n 2 --dist loadfile --no-loadscope-reorder -m "not acceptance"
 
-# The runs marked acceptance (pytest.mark.acceptance in the test modules): the README's walkthrough
+# The runs marked acceptance (pytest.mark.acceptance in the test modules): the docs' walkthrough
 # as written (bootstrap intervals), the real-data examples and fits whose single run takes
 # minutes, and further cases of what make test checks once (a second law, a second basin, a
 # second seed). Run before a release and after changing the fit's search, intervals or examples.

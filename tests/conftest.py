@@ -19,7 +19,7 @@ from pendfmu.fmubuild import build_all
 os.environ.setdefault("PENDFMU_WORKERS", "1")
 
 
-FIRST = ("test_readme_runs.py", "test_fit_options.py", "test_identification.py", "test_faults_workers.py",
+FIRST = ("test_docs_runs.py", "test_fit_options.py", "test_identification.py", "test_faults_workers.py",
          "test_reference_fmus.py", "test_examples_realdata.py", "test_coverage_benchmark.py", "test_realdata_fits.py",
          "test_wheel.py", "test_reference_mutants.py", "test_laws.py", "test_control.py", "test_validation.py",
          "test_distributed.py", "test_report_browser.py", "test_check.py")

@@ -1,13 +1,18 @@
-"""The code blocks of the README and of the documentation site's pages, as their tests run
-them (tests/test_readme_runs.py, tests/test_docs_site.py).
+"""The code blocks of the README and of the documentation site's pages, and the one runner
+that runs them all (tests/test_docs_runs.py; tests/test_docs_site.py checks their languages).
 
-The rule, stated at the README's top: every ``sh`` and ``python`` block runs as written, in
-order, in a checkout after the two commands and ``. .venv/bin/activate``; a ``text`` block
-is a template (its CAPITALS are placeholders) or a command for another machine; an
-``output`` block right after a runnable block lists lines its run prints (``...`` stands
-for lines left out). The README's first block, the two commands themselves, is the set-up
-the test already stands in. A docs page (MyST Markdown) also has directives, fenced as
-```{name} with the directive's arguments on the fence's line: they are not code.
+The rule, stated in the README and on the site's Getting started page: every ``sh`` and
+``python`` block runs as written, in a checkout after the two commands and
+``. .venv/bin/activate``; a ``text`` block is a template (its CAPITALS are placeholders) or a
+command for another machine; an ``output`` block right after a runnable block lists lines its
+run prints (``...`` stands for lines left out). The README's first block, the two commands
+themselves, is the set-up the test already stands in. A docs page (MyST Markdown) also has
+directives, fenced as ```{name} with the directive's arguments on the fence's line: they are
+not code, except ```{include}, whose file is read as part of the page.
+
+The order is the reader's: the README's blocks, then each page's in the site's reading order
+(the toctrees from docs/index.md, depth first), all in one folder, so that a page may use
+what an earlier one wrote (the walkthrough's rec/ and rig.json).
 """
 
 from __future__ import annotations
@@ -21,10 +26,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+DOCS = ROOT / "docs"
 RUNNABLE = ("sh", "python")
 # A fence may be indented (a block inside a list item); its lines are then dedented. Its
 # language is a word, or a MyST directive ({name}) followed by its arguments.
 FENCE = re.compile(r"^([ \t]*)```(?:(\{[\w:-]+\})[^\n]*|([\w-]*)[ \t]*)\n(.*?)^\1```[ \t]*$", re.M | re.S)
+INCLUDE = re.compile(r"^```\{include\}[ \t]+(\S+)", re.M)
+TOCTREE = re.compile(r"^```\{toctree\}[^\n]*\n(.*?)^```", re.M | re.S)
 
 
 @dataclass(frozen=True)
@@ -88,3 +97,37 @@ def run(block: Block, cwd: Path, code: str) -> subprocess.CompletedProcess:
         [str(bin_dir / "python"), "-"]
     return subprocess.run(command, input=None if block.language == "sh" else code, cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=900)
+
+
+def name(path: Path) -> str:
+    """A file as labels name it: its path in the checkout."""
+    return str(Path(path).resolve().relative_to(ROOT))
+
+
+def page_blocks(page: Path) -> list[Block]:
+    """A docs page's blocks, and those of each file it includes (as part of the page)."""
+    found = blocks(page, name(page))
+    for included in INCLUDE.findall(page.read_text()):
+        found += page_blocks((page.parent / included).resolve())
+    return found
+
+
+def reading_order(page: Path = DOCS / "index.md") -> list[Path]:
+    """The site's pages in its reading order: a page, then the pages its toctrees list, each
+    followed by its own (depth first, as Sphinx's navigation reads them)."""
+    order = [page]
+    for tree in TOCTREE.findall(page.read_text()):
+        for entry in tree.splitlines():
+            entry = entry.strip()
+            if entry and not entry.startswith(":"):
+                order += reading_order((page.parent / entry).with_suffix(".md"))
+    return order
+
+
+def walk() -> list[Block]:
+    """Every block the runner runs, in its order: the README's (without its set-up block),
+    then each page's in the site's reading order."""
+    found = runnable(README)
+    for page in reading_order():
+        found += [b for b in page_blocks(page) if b.language in RUNNABLE]
+    return found

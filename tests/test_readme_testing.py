@@ -1,5 +1,5 @@
-"""The README's "Testing your FMUs" example runs as written: its python block, taken from the
-README itself, is a test file run by pytest (with the plugin loaded as a user without the
+"""The user guide's "Testing your FMUs" example (docs/user-guide/pytest-plugin.md) runs as
+written: its python block, taken from the page itself, is a test file run by pytest (with the plugin loaded as a user without the
 install would, -p pendfmu.testing) in a fresh folder on pendfmu's Cart.fmu, and passes. (That
 each assertion fails on its bug is tests/test_testing_plugin.py's job.)"""
 
@@ -16,8 +16,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _example_block() -> str:
-    text = (ROOT / "README.md").read_text()
-    section = text[text.index("## Testing your FMUs"):]
+    text = (ROOT / "docs" / "user-guide" / "pytest-plugin.md").read_text()
+    section = text[text.index("# Testing your FMUs"):]
     return re.search(r"```python\n(.*?)```", section, re.S).group(1)
 
 
