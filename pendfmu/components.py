@@ -32,7 +32,7 @@ ETA_BACK_FROM_ETA = -1.0
 
 def back_drive_efficiency(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> float:
     """A, the factor on the pendulum's push in F_A (MODEL.md's A(eta) unless eta_back says
-    otherwise: README, Drives). 0 means a self-locking screw."""
+    otherwise: docs/user-guide/drives.md). 0 means a self-locking screw."""
     if eta_back < 0:
         return max(0.0, (2.0 * eta - 1.0) / eta) if eta > SELF_LOCKING_ETA else 0.0
     return eta_back
@@ -147,7 +147,7 @@ def _t_mode():
 
 
 def _friction_extras(joint, *, speed, viscous, coulomb, stiction, names):
-    """A joint's optional friction terms beyond MODEL.md (README, "Friction law extras";
+    """A joint's optional friction terms beyond MODEL.md (docs/user-guide/friction.md, "Friction law extras";
     pendfmu.friction names each joint's terms): the Stribeck speed and the direction
     asymmetries of the viscous and Coulomb terms. Each is 0 by default, which switches it
     off: the paper's law stays exact. `speed`, `viscous` and `coulomb` are (name, unit)

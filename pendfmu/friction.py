@@ -1,8 +1,8 @@
 """The joints' friction law, once for Python: each joint's declaration and a twin of friction.h.
 
 The FMUs compute the law in ``pendfmu/csrc/framework/friction.h``: MODEL.md's viscous,
-Coulomb and stiction friction with the optional extras of the README's "Friction law
-extras" (a Stribeck speed, direction asymmetries of the viscous and Coulomb terms, a
+Coulomb and stiction friction with the optional extras of the user guide's "Friction law
+extras" (docs/user-guide/friction.md) (a Stribeck speed, direction asymmetries of the viscous and Coulomb terms, a
 constant offset force, quadratic drag), each off at 0. Everything in Python that needs the
 law or a joint's names reads them here: the report's friction figure, the stiction
 analysis, the stages' search boxes and the virtual rig.

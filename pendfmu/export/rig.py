@@ -4,8 +4,8 @@
   out; every other input no connection feeds), as ``pendfmu system`` writes a system: what
   fmpy's simulate_ssp, OMSimulator and ``pendfmu simulate --system`` drive and record;
 - ``rig-flat.ssp``: the same rig without them (``pendfmu system --no-system-connectors``),
-  for ecos and libcosim, which refuse any connection to a system connector (README, Other
-  SSP tools); drive ``CurrentLoop.I_c`` there.
+  for ecos and libcosim, which refuse any connection to a system connector (docs/user-guide/exchange.md,
+  Other SSP tools); drive ``CurrentLoop.I_c`` there.
 
 Both are :func:`pendfmu.ssp.rig_system` written by :func:`pendfmu.ssp.write_ssp`, so they hold
 what every rig SSP holds: the connections the exported screw efficiency calls for (the

@@ -4,7 +4,7 @@ The terms are friction.h's (pendfmu/friction.py names each joint's parameters):
 
     viscous only           k_fw; Coulomb friction and stiction fixed at 0
     + Coulomb              F_K; stiction 0: the breakaway threshold is max(F_S, F_K) = F_K
-                           (README, Friction law extras), so a stiction below the Coulomb
+                           (docs/user-guide/friction.md), so a stiction below the Coulomb
                            friction is no stiction
     + stiction             F_S: MODEL.md's law, the stage's own
     + Stribeck             v_S

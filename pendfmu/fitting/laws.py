@@ -28,7 +28,7 @@ The fits are independent jobs, run on the global search's workers or Dask schedu
 
 Every fit after the first round searches the first round's boxes (keep_boxes), not a decade
 around its start. An asymmetry or an offset has a sign and a size only the rig knows
-(README): unless bounds are given, an asymmetry is searched up to the size of the term it
+(docs/user-guide/friction.md): unless bounds are given, an asymmetry is searched up to the size of the term it
 skews in the law below, an offset up to the largest Coulomb friction the stage would search
 (ladder.second_round_boxes).
 

@@ -54,7 +54,7 @@ def self_locking_switch(free: Sequence[FreeParameter], experiments: Sequence[Exp
     """A warning when a fit frees eta over a box that straddles the self-locking limit (0.5)
     while MODEL.md's switch is on (eta_back = -1) and a recording has a pendulum on the cart:
     inside the box the screw turns from self-locking to back-drivable, so the model the fit
-    explores changes its kind, not only its efficiency (README, Drives)."""
+    explores changes its kind, not only its efficiency (docs/user-guide/drives.md)."""
     box = next((p for p in free if p.name == "eta" and p.experiment is None), None)
     if box is None or not box.low <= SELF_LOCKING_ETA < box.high:
         return []
@@ -72,7 +72,7 @@ def self_locking_switch(free: Sequence[FreeParameter], experiments: Sequence[Exp
 
 def viscous_twins(free: Sequence[FreeParameter], experiments: Sequence[Experiment]) -> list[str]:
     """A warning when a fit frees both k_fwc and k_emf without an electrical lag: the back-EMF
-    then acts on x as viscous friction does (README, Drives), and only k_fwc + eta k_emf is
+    then acts on x as viscous friction does (docs/user-guide/drives.md), and only k_fwc + eta k_emf is
     determined."""
     names = {p.name for p in free if p.experiment is None}
     if not {"k_fwc", "k_emf"} <= names or "tau_e" in names:

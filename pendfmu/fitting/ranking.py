@@ -17,7 +17,7 @@ held-out RMS is below 1/1.05 = 0.952 of the simpler law's, that is when it remov
 9 % (1 - 0.952^2), about a tenth, of the held-out mean square: less is not worth its
 parameters. Near the noise (RMS about 1) the margin is a missing term whose effect is a
 third of the sensor noise (sqrt(1.05^2 - 1) = 0.32), which the recordings cannot show; on the
-real recordings of the README ("Choosing a friction law"), whose residuals stand 20-200
+real recordings of the user guide ("Choosing a friction law", docs/user-guide/friction.md), whose residuals stand 20-200
 times above the noise, the richer laws' held-out errors lay within 0.2 % of the recommended
 law's or above it.
 

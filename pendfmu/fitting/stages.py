@@ -7,7 +7,7 @@ and compares them with the signals the block's sensor recorded:
     cart      CurrentLoop -> Cart driven by I_c (held), or Cart
               driven by the recorded I (linear, ``drive="I"``), or
               by a recorded command u (held, ``drive="u"``: PWM or
-              voltage drives, README Drives)                       -> fitted to x
+              voltage drives, user guide: Drives)                  -> fitted to x
     pendulum  Pendulum driven by the recorded cart acceleration a
               (linear), or a still cart                            -> fitted to phi
 

@@ -59,7 +59,7 @@ def fmu_folder() -> Path:
 
     ``$PENDFMU_FMU_DIR`` when set; else ``fmus/`` of the source checkout pendfmu runs from
     (a folder holding pendfmu's pyproject.toml beside the package), so that a developer
-    finds them where the README says; else the user cache, one folder per pendfmu version,
+    finds them where the documentation says; else the user cache, one folder per pendfmu version,
     because an installed package's own folder may be read-only and is shared by users.
     """
     if os.environ.get("PENDFMU_FMU_DIR"):

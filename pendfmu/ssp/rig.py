@@ -39,7 +39,7 @@ def rig_connections(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> list[Con
     eta_back : float, optional
         The Cart's eta_back parameter: -1 for MODEL.md's A(eta) (back-drivable above
         eta = 0.5), 0 for self-locking, > 0 for back-drivable with that factor A on the
-        pendulum's push (README, Drives).
+        pendulum's push (docs/user-guide/drives.md).
 
     Returns
     -------
@@ -133,7 +133,7 @@ def rig_system(eta: float, fmu_dir: str | Path, parameters: dict | None = None, 
     too (rig_boundary).
     `eta` is the screw efficiency: above SELF_LOCKING_ETA (0.5) the pendulum's phi, w and alpha feed back into
     the cart (5 connections), otherwise only current -> cart -> pendulum (2 connections). A Cart parameter
-    `eta_back` in `parameters` overrides that switch (0: self-locking, > 0: back-drivable; README, Drives).
+    `eta_back` in `parameters` overrides that switch (0: self-locking, > 0: back-drivable; docs/user-guide/drives.md).
     `parameters` maps "name" (every component that has it) or "Component.name" to a value
     in the FMU's unit; m_p and l always go to both Cart and Pendulum. The default step size
     is the sensors' sample period (0.2 ms).

@@ -25,7 +25,7 @@ The system's own connectors are the standard's way to give a system inputs and o
 (fmpy's simulate_ssp needs one for every input no component feeds). ecos 0.7.2 and
 libcosim 0.0.6 refuse any connection to them ("No element named: ", "No such node
 (<xmlattr>.startElement)"): for those, ``system_connectors=False`` writes the same system
-without them (README, "Other SSP tools"; tests/test_ssp_tools.py pins the refusal).
+without them (docs/user-guide/exchange.md, "Other SSP tools"; tests/test_ssp_tools.py pins the refusal).
 """
 
 from __future__ import annotations
