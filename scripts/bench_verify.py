@@ -1,7 +1,7 @@
 """Benchmark: the verification over a fit's bootstrap replicates (issue 27's done-when: for
 100 replicates of a 20 s run, at most 2 minutes on the 2-core machine).
 
-The fit is the README's: `pendfmu rig --seed 4`, then `pendfmu fit all` with --replicates
+The fit is Getting started's (docs): `pendfmu rig --seed 4`, then `pendfmu fit all` with --replicates
 100 (made once, kept in WORK; about 6 minutes on two cores). Then, timed: the design's
 balance run of DURATION s on the identified model and on each replicate, compensation as
 designed (verify.verify on all cores), as `pendfmu control` runs it. Prints the runs, the
@@ -25,7 +25,7 @@ BUDGET = 120.0  # s for 100 replicates
 
 
 def fitted(work: Path, replicates: int) -> Path:
-    """WORK/fit.json: the README rig's fit with `replicates` bootstrap replicates (made once)."""
+    """WORK/fit.json: the Getting-started rig's fit with `replicates` bootstrap replicates (made once)."""
     fit = work / f"fit-{replicates}.json"
     if not fit.exists():
         rig = work / "rec"

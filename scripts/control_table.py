@@ -22,7 +22,7 @@ mm). The miss is the self-locking rig 3: after the catch its cart slips to and f
 RMS. Rigs 1 and 4 have met both since a stuck self-locking cart holds itself; the self-locking
 rigs' rows (1-5, compensation on) were run again for that rule, the others are untouched by
 it. Without compensation no run met them (balance 1.7-3.9 steps, 41-109 mm; no swing-up
-caught). The README's "From fit to controller" has the table.
+caught). docs/user-guide/fit-to-controller.md has the table.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 For several seeds: a free decay (30 s, 10-bit encoder) is recorded on the virtual rig,
 and the pendulum stage is fitted with each cost; the relative errors of k_fwp and T_Kp
 are printed, with their mean absolute value per cost. This measurement chose the default
-cost (README, "Identification").
+cost (docs/user-guide/identification.md).
 
     python scripts/quantization_benchmark.py [--seeds 1 2 3]
 """

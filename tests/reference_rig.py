@@ -25,14 +25,14 @@ Friction (each joint; speed s, active force F):
                stuck:   s = 0, acceleration = 0, the joint holds any |F| <= threshold
                threshold = max(F_S, F_K)   (with F_S < F_K the joint cannot move before
                |F| > F_K: it would decelerate at once and stop again)
-Friction extras (README, "Friction law extras"; all 0 = off, the paper's law above):
+Friction extras (docs/user-guide/friction.md, "Friction law extras"; all 0 = off, the paper's law above):
                an offset F_O (F_Oc, T_Op) acts beside F: the joint sees F_N = F + F_O,
                in the equation of motion and in the stick test;
                in direction d = mode the viscous coefficient is k_fw + d*dk_fw and the
                Coulomb level F_K(d) = F_K + d*dF_K; Stribeck (v_S > 0) adds
                d*(F_S - F_K(d))*exp(-(s/v_S)^2); quadratic drag adds drag*s*|s|;
                stuck while -max(F_S, F_K(-1)) <= F_N <= max(F_S, F_K(+1))
-Drives (README, Drives; all off by default: k_u = k_emf = tau_e = 0, eta_back = -1):
+Drives (docs/user-guide/drives.md; all off by default: k_u = k_emf = tau_e = 0, eta_back = -1):
                the motor force is F_u = k_M*k_D*I + F_cmd with the command path
                F_cmd = k_u*u - k_emf*v (tau_e = 0), or the lag state F_e with
                tau_e*dF_e/dt = k_u*u - k_emf*v - F_e, F_e(0) = 0 (tau_e > 0);
@@ -119,10 +119,10 @@ DEFAULTS: dict[str, float] = dict(
     k_fwc=30.0, F_Kc=8.0, F_Sc=12.0,
     # pendulum
     J_p=0.0, g=9.81, k_fwp=1e-3, T_Kp=2e-3, T_Sp=4e-3,
-    # friction extras, all off (README, "Friction law extras")
+    # friction extras, all off (docs/user-guide/friction.md)
     v_Sc=0.0, dk_fwc=0.0, dF_Kc=0.0, F_Oc=0.0,
     w_Sp=0.0, dk_fwp=0.0, dT_Kp=0.0, T_Op=0.0, k_dp=0.0,
-    # drives beyond MODEL.md, all off (README, Drives)
+    # drives beyond MODEL.md, all off (docs/user-guide/drives.md)
     k_u=0.0, k_emf=0.0, tau_e=0.0, eta_back=-1.0,
 )
 #: Initial states (x0, v0 are Cart parameters, phi0, w0 Pendulum ones in MODEL.md).
@@ -678,7 +678,7 @@ def simulate_cart(params: dict | None, I, t_eval, x0: float = 0.0, v0: float = 0
                   pendulum=None, *, u=0.0, breakpoints: Sequence[float] = (),
                   **solver) -> pd.DataFrame:
     """The Cart block alone, driven by the current ``I`` (float, Steps, pairs, callable)
-    and the drive command ``u`` (the same forms; used when k_u != 0, README Drives).
+    and the drive command ``u`` (the same forms; used when k_u != 0, docs/user-guide/drives.md).
 
     ``pendulum``: for a back-drivable screw (eta > 0.5) the pendulum signals, a callable
     t -> (phi, w, alpha) or a constant tuple; None means a pendulum at rest (no force).

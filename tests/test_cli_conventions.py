@@ -234,7 +234,7 @@ def test_a_mistyped_choice_or_stage_gets_the_nearest_name(capsys):
 
 
 def test_system_components_given_as_name_equals_file(tmp_path, capsys):
-    """The README's `pendfmu system --component NAME=FILE.fmu ...` form, through main()."""
+    """The user guide's `pendfmu system --component NAME=FILE.fmu ...` form, through main()."""
     from pendfmu.fmubuild import ensure_fmu
 
     out = tmp_path / "s.ssp"

@@ -398,7 +398,7 @@ def test_the_swing_up_stays_within_a_short_track(tmp_path):
 # and the exported RigController.fmu (no parameter set from outside: its start values are the
 # design) in closed loop with the reference simulator of the true rig, 20 s from 0.1 rad and from
 # hanging. About 8 minutes a rig: the fit, and 40 simulated seconds at 1.5 s of CPU each.
-# scripts/control_table.py does the same for the ten rigs of the README's table.
+# scripts/control_table.py does the same for the ten rigs of the table in docs/user-guide/fit-to-controller.md.
 ISSUE = {"capture": 12.0, "phi_steps": 1.0, "x": 0.010, "I_c": 1.0, "x_peak": 0.4}
 
 

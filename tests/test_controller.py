@@ -1,5 +1,5 @@
 """The Controller FMU: a discrete PID controller with sample time, derivative over n_d samples,
-output delay, saturation and feedforward (pendfmu/csrc/Controller/model.c, README "The controller").
+output delay, saturation and feedforward (pendfmu/csrc/Controller/model.c, docs/user-guide/pid-controller.md).
 
 What each test compares against:
 - (1) an independent plain-Python implementation of the EMPS controller written here from

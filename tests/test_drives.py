@@ -1,4 +1,4 @@
-"""Drives beyond MODEL.md (README, Drives): a command input u with gain k_u, the back-EMF
+"""Drives beyond MODEL.md (docs/user-guide/drives.md): a command input u with gain k_u, the back-EMF
 k_emf of a voltage-driven motor, an electrical lag tau_e of the command path, and the screw's
 back-drive efficiency eta_back apart from eta. All off by default.
 

@@ -1,5 +1,5 @@
 """`pendfmu fit --system S.ssp` starts from the values the SSP binds: they are the model's known
-values and the start of the fitted ones (README, Your own FMU: "Known values", "Search box").
+values and the start of the fitted ones (docs/user-guide/own-fmu.md: "Known values", "Search box").
 
 The cart alone, commanded through its drive input u (force k_u*u before the screw), with
 k_u 0 in its FMU: without the SSP's value there is no start and no box (a decade either

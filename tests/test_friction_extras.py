@@ -1,4 +1,4 @@
-"""The friction law extras (README, "Friction law extras"): Stribeck, direction-dependent Coulomb
+"""The friction law extras (docs/user-guide/friction.md): Stribeck, direction-dependent Coulomb
 and viscous terms, a constant offset force; all off by default.
 
 Three kinds of check, each able to fail on its own:
