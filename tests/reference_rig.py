@@ -96,6 +96,8 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
+NEGLIGIBLE_RATE = 1e-100  # A/s: a current's rate below this is 0 (rhs)
+
 __all__ = [
     "DEFAULTS",
     "INITIAL_DEFAULTS",
@@ -385,6 +387,8 @@ class _Rig:
     def rhs(self, t, y, modes, u):
         yl = y.tolist()
         dI, _I, a, alpha, _F, _T, _phi, _w = self.eval(t, yl, modes, u)
+        if abs(dI) < NEGLIGIBLE_RATE:  # a current decaying to a command held at 0 A for seconds: from about
+            dI = 0.0                   # 1e-160 A on, DOP853's error estimate divided 0 by 0 (subnormal squares)
         dphi, dw = (yl[4], alpha) if self.pend == "dynamic" else (0.0, 0.0)
         p = self.p
         dF = 0.0
