@@ -204,8 +204,9 @@ class Controller:
         self-locking screw (compensation on), stuck, and wanting less than F_ramp. Why: a
         self-locking cart stays put unpowered, and the pendulum's own stiction holds it near
         upright; a breakaway ramped in below F_ramp left such a cart stuck with current
-        flowing for good (1.1 steps from upright at 0.6 A on the table's rig 1, 1.3 A on rig
-        4), and a full one made it slip to and fro at 1 A (rig 3).
+        flowing for good (the table's rig 1: 1.14 steps from upright with 0.6 A; rig 4's
+        figures, 1.13 steps and 0.78 A RMS, are of the same kind), and in a trial one that
+        grew to the full stiction while stuck made rig 3's cart slip to and fro at 1 A.
 
         Parameters
         ----------
