@@ -396,7 +396,7 @@ class ComponentFMU:
                 t = times[k - 1]
                 self._set_inputs(inputs(t) if inputs else None, prepared)
                 self._set_derivatives(derivatives(t) if derivatives else None, prepared)
-                self.slave.call("fmi2DoStep", component, self.time, times[k] - t, 1)
+                fmu.call("fmi2DoStep", component, self.time, times[k] - t, 1)
                 self.time += times[k] - t
             fmu.call("fmi2GetReal", component, read.refs, read.size, read.values_c)
             result[k] = read.values
