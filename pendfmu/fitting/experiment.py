@@ -15,7 +15,7 @@ user's FMU or SSP system is the same thing with the names the user gives.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -46,6 +46,10 @@ class Setup:
     coarse_values: Mapping[str, float] = field(default_factory=dict)
     starts: tuple[StartState, ...] = ()  # every initial state the recordings can tell (estimated on request)
     measured_initial: Mapping[str, str] = field(default_factory=dict)  # recorded state column -> its parameter
+    # initial-state parameter -> the model output that is its state, for states no recorded
+    # column tells (a cart's v0 where only x is recorded): a window that starts late cannot
+    # estimate them (problem.py warns; validation.py starts a late half with the fit's own)
+    unseen: Mapping[str, str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -240,7 +244,7 @@ def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float], per_
     experiment = Experiment(recording, setup, dict(fixed))
     starts = starts_of(setup, recording)
     stated = {setup.estimated_initial.get(column, column) for column in recording.initial}
-    late = recording.span is not None and not recording.initial
+    late = starts_late(recording)
     wanted = [p for c, p in setup.estimated_initial.items() if c not in recording.initial]
     wanted += [p for c, p in setup.measured_initial.items() if c in recording.signals and c not in recording.initial]
     if late:
@@ -259,3 +263,27 @@ def prepare(recording: Recording, setup: Setup, fixed: Mapping[str, float], per_
     for column in setup.match.values():
         experiment.scales[column] = signal_scale(recording, column)
     return experiment
+
+
+def starts_late(recording: Recording) -> bool:
+    """A window or segment after its file's first sample: its sidecar's "initial" values,
+    which belong to that sample, do not hold for it (Recording.window)."""
+    return recording.span is not None and not recording.initial
+
+
+def unseen_at_a_late_start(experiment: Experiment, fitted: Collection[str] = ()) -> list[str]:
+    """A warning per initial state that a late window keeps from its file's first sample
+    because nothing recorded tells it and it is not `fitted` (Setup.unseen: a cart's v0
+    with only x recorded): the window would start the model at the file's start speed,
+    whatever the speed is at the window's start."""
+    recording = experiment.recording
+    if not starts_late(recording):
+        return []
+    return [f"{recording.label}: starts after its file's first sample, and no recorded column tells the model's "
+            f"initial {parameter} (the start of its output {output}): it keeps {experiment.fixed.get(parameter, 0.0):g}, "
+            f"a value for the file's first sample; say which column's slope tells it (--initial COLUMN'={parameter}), "
+            f"or fit it per recording (--per-recording {parameter}, with --bounds {parameter}=LOW:HIGH)"
+            for parameter, output in experiment.setup.unseen.items()
+            if parameter not in experiment.estimated and parameter not in recording.parameters
+            and parameter not in fitted]
+

@@ -135,7 +135,22 @@ def model_setup(model: Model, recording: Recording, drive: Mapping[str, str] | N
     starts = tuple(StartState(parameter, signal.rstrip("'"), rate=signal.endswith("'"))
                    for signal, parameter in (initial or {}).items() if signal.rstrip("'") in columns)
     return Setup(model.name, model, {name: (column, interpolation) for name, column in drive.items()}, dict(match),
-                 starts=starts)
+                 starts=starts, unseen=_unseen(model, initial or {}, starts))
+
+
+def _unseen(model: Model, initial: Mapping[str, str], starts: Sequence[StartState]) -> dict[str, str]:
+    """Setup.unseen: each initial-state parameter of `initial` (signal -> parameter) that no
+    start tells, once per port (x0 and ForeignCart.x0 are one), under its bare name where it
+    has one (the name the fit's known values use)."""
+    taken = {port for state in starts for port in model.resolve(state.parameter, "parameter")}
+    outputs = set(model.names("output"))
+    unseen = {}
+    for signal, parameter in sorted(initial.items(), key=lambda item: "." in item[1]):
+        ports = set(model.resolve(parameter, "parameter"))
+        if not signal.endswith("'") and signal in outputs and not ports & taken:
+            unseen[parameter] = signal
+            taken |= ports
+    return unseen
 
 
 def model_experiments(model: Model, recordings: Sequence[Recording], values: Mapping[str, float],

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from pendfmu.errors import OptionError
-from pendfmu.fitting.experiment import Experiment
+from pendfmu.fitting.experiment import Experiment, unseen_at_a_late_start
 from pendfmu.fitting.models import (checked_values, initial_map, mapping, model_experiments,
                                     model_free_parameters, read_for, without_aliases)
 from pendfmu.fitting.plausibility import check_experiment, self_locking_switch, viscous_twins
@@ -117,7 +117,8 @@ def model_problem(spec: FitSpec) -> Problem:
     data_warnings = [w for e in experiments for w in check_experiment(e)]
     free = model_free_parameters(model, list(spec.free), list(spec.fix), dict(spec.bounds), values, experiments)
     model_file = None if isinstance(spec.target, Model) else str(spec.target)
-    return Problem(model.name, experiments, free, values, data_warnings, [], model_file)
+    setup_warnings = [w for e in experiments for w in unseen_at_a_late_start(e, {p.name for p in free})]
+    return Problem(model.name, experiments, free, values, data_warnings, setup_warnings, model_file)
 
 
 def _check_starts(spec: FitSpec, name: str, experiments: Sequence[Experiment]) -> None:

@@ -33,7 +33,7 @@ from pendfmu.fitting.ripple import fit_with_ripple, looks_for_ripple
 from pendfmu.fitting.spec import FitSpec
 from pendfmu.fitting.stiction import JOINTS, bound_stiction
 from pendfmu.fitting.uncertainty import assess_uncertainty
-from pendfmu.fitting.validation import hold_the_halves, mark_moving, moving, separately, validate
+from pendfmu.fitting.validation import hold_the_halves, mark_moving, moving, separately, split_states, validate
 
 
 @dataclass
@@ -197,8 +197,9 @@ class _Found:
         as the sensors the halves are reported, not judged."""
         adequate = self.verdict["verdict"] == "adequate"
         started = time.perf_counter()
+        at_the_split = split_states(self.problem, lambda outputs: self.residuals.simulate(self.outcome.u, outputs))
         consistency = validate(spec, self.problem, {**self.problem.values, **self.fitted},
-                               None if adequate else fit_a_half)
+                               None if adequate else fit_a_half, at_the_split)
         if consistency:  # what the validation cost, beside the search's fit.seconds (scripts/interval_cost.py)
             consistency["seconds"] = time.perf_counter() - started
         self.verdict["windows"] = consistency
