@@ -26,8 +26,15 @@ extensions = [
     "myst_parser",
     "sphinx.ext.autodoc",
     "numpydoc",
+    "matplotlib.sphinxext.plot_directive",
     "pendfmu_docs",
 ]
+
+# Pictures drawn at build time from the code on the page ({plot}: the rig on the model page),
+# as PNG only, without links to their source or other formats.
+plot_formats = [("png", 110)]
+plot_html_show_source_link = False
+plot_html_show_formats = False
 
 source_suffix = {".md": "markdown", ".rst": "restructuredtext"}  # .rst: numpydoc's autosummary asks for it
 root_doc = "index"

@@ -120,7 +120,7 @@ class Component:
         return [v for v in self.variables if v.state]
 
 
-# When the Cart reads the pendulum's inputs: a back-drivable screw (README, Drives).
+# When the Cart reads the pendulum's inputs: a back-drivable screw (docs/user-guide/drives.md).
 _BACK_DRIVEN = f"(used when back-drivable: eta > {SELF_LOCKING_ETA} and eta_back = -1, or eta_back > 0)"
 
 
@@ -207,7 +207,7 @@ CART = Component(
         *_friction_extras("the cart", speed=("v", "m/s"), viscous=("k_fwc", "N.s/m"), coulomb=("F_Kc", "N"),
                           stiction="F_Sc", names=("v_Sc", "dk_fwc", "dF_Kc")),
         _param("F_Oc", 0.0, "N", "Constant offset force on the cart along +x (cable drag, a tilted track)"),
-        # Drives beyond MODEL.md (README, Drives): a command u beside the current, all off at 0.
+        # Drives beyond MODEL.md (docs/user-guide/drives.md): a command u beside the current, all off at 0.
         _param("k_u", 0.0, "N", "Motor force per unit of the command u, before the screw's efficiency "
                                 "(0: no command path)"),
         _param("k_emf", 0.0, "N.s/m", "Back-EMF of a voltage-driven motor: the command path's force falls by "
@@ -215,7 +215,7 @@ CART = Component(
         _param("tau_e", 0.0, "s", "Electrical lag of the command path: tau_e*dF_e/dt = k_u*u - k_emf*v - F_e "
                                   "(0: no lag, the force follows u at once)", low=0.0),
         _param("eta_back", ETA_BACK_FROM_ETA, "1",
-               "Back-drive efficiency of the screw: -1 (default) A(eta) = max(0, (2*eta-1)/eta) as MODEL.md; "
+               "Back-drive efficiency of the screw: -1 (default) A(eta) = max(0, (2*eta-1)/eta) as the paper; "
                "0 self-locking whatever eta; in (0, 1] this efficiency", low=-1.0, high=1.0, excluded=(-1.0, 0.0)),
         _param("x0", 0.0, "m", "Initial position"),
         _param("v0", 0.0, "m/s", "Initial speed"),

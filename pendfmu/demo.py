@@ -99,7 +99,7 @@ def identify(out: Path) -> Path:
     rig_dir = out / "virtual-rig"
     print(f"demo: recording the paper's experiments on a virtual rig with a worn truth ({rig_dir})", flush=True)
     write_experiments(rig_dir, DEMO_TRUTH, seed=1)
-    print("demo: fitting current, cart and pendulum in turn from MODEL.md's reference values, with bootstrap "
+    print("demo: fitting current, cart and pendulum in turn from the reference rig's values, with bootstrap "
           "intervals (about a minute)", flush=True)
     result = fit("all", rig_dir, seed=1)
     result.write_json(out / "identified.json")

@@ -221,7 +221,7 @@ def test_design_reads_the_fit_and_the_sidecars(tmp_path):
     the_design, _, notes = design_from_result(str(path), args)
     assert not the_design.axis and the_design.rig.F_Kc == 5.0 and the_design.rig.k_fwc == 20.0
     assert (the_design.T_s, the_design.I_max, the_design.x_max, the_design.compensation) == (2e-3, 4.0, 0.3, False)
-    assert "encoder resolution of x: the sidecars" in notes and "encoder resolution of phi: MODEL.md" in notes
+    assert "encoder resolution of x: the sidecars" in notes and "encoder resolution of phi: the reference rig's encoders" in notes
     # the sidecar's resolution is the estimator's (not MODEL.md's 9.8e-6 m)
     values = dict(rig_defaults(), eta=0.7, F_Kc=5.0, k_fwc=20.0)
     options = dict(task="swing-up", T_s=2e-3, weights=Weights(x=0.1), compensation=False, I_max=4.0, x_max=0.3)

@@ -43,7 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--weights", nargs="+", default=[], metavar="NAME=SCALE",
                         help="LQR weights as tolerated scales: x [m], phi [rad], v [m/s], w [rad/s], a [m/s^2]")
     parser.add_argument("--no-compensation", action="store_true", help="do not compensate the cart's friction")
-    parser.add_argument("--dx", type=float, help="cart encoder resolution [m] (default: the sidecars, else MODEL.md)")
+    parser.add_argument("--dx", type=float, help="cart encoder resolution [m] (default: the sidecars, else the paper's 1024-count encoder)")
     parser.add_argument("--dphi", type=float, help="pendulum encoder resolution [rad] (default: as --dx)")
     parser.add_argument("--duration", type=float, default=20.0,
                         help="length of each verification run [s] (default 20; the figures are over its last 10 s)")

@@ -250,7 +250,7 @@ def _truth_lines(folder, result=None) -> list[str]:
 
     rows = against_truth(result.estimates, truth)
     reference = rig_defaults()  # where a fit starts when no value is given
-    lines = [f"against {folder / 'truth.json'} (a virtual rig's truth; MODEL.md's reference is where the fit "
+    lines = [f"against {folder / 'truth.json'} (a virtual rig's truth; the reference rig is where the fit "
              f"started):"]
     def line(r) -> str:
         error = f"{r.value / r.truth - 1:+.2%}" if r.truth != 0 else f"{r.value - r.truth:+.3g}"

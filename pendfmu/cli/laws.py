@@ -6,7 +6,7 @@ pendulum's friction fitted, ranked by their error on held-out data, and one reco
     pendfmu laws cart run.csv --laws viscous stiction offset --out laws.json
 
 The laws are a ladder, each the one before plus a term: viscous only; + Coulomb; + stiction
-(MODEL.md's law); + Stribeck; + direction asymmetry; + offset; + air drag (the pendulum).
+(the paper's law); + Stribeck; + direction asymmetry; + offset; + air drag (the pendulum).
 Each is fitted to the whole recordings and to their early halves; the early fit predicts
 the late halves (the held-out data). The table ranks the laws by that held-out error, with
 BIC beside it, and the simplest law within 5 % of the best held-out error is recommended.

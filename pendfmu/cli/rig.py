@@ -1,8 +1,8 @@
 """The virtual rig: write the paper's experiments as recordings, with the truth beside.
 
-By default the rig is one MODEL.md does not describe: every identified parameter is drawn
-from the seed around the reference values (virtual_rig.draw_truth), so that a fit, which
-starts from the reference values, has to find it. ``--reference`` records MODEL.md's
+By default the rig is not the reference rig (the user guide's model page): every identified
+parameter is drawn from the seed around the reference values (virtual_rig.draw_truth), so that a fit, which
+starts from the reference values, has to find it. ``--reference`` records the
 reference rig itself; ``--params`` a rig you describe. truth.json says which.
 """
 
@@ -16,8 +16,8 @@ HELP = "write the paper's experiments as recordings from a simulated rig (truth.
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="output folder")
     truth = parser.add_mutually_exclusive_group()
-    truth.add_argument("--params", help="the rig's parameters file (absent names: MODEL.md's reference rig)")
-    truth.add_argument("--reference", action="store_true", help="record MODEL.md's reference rig")
+    truth.add_argument("--params", help="the rig's parameters file (absent names: the reference rig's values)")
+    truth.add_argument("--reference", action="store_true", help="record the reference rig (the FMUs' defaults)")
     parser.add_argument("--seed", type=int, default=0,
                         help="seed of the drawn rig and of the sensor noise (default 0)")
 
@@ -29,10 +29,10 @@ def run(args: argparse.Namespace) -> int:
 
     check_output_folder(args.out, "--out")
     if args.params:
-        truth, about = read_parameters(args.params), {"described": f"MODEL.md's reference rig with {args.params}"}
+        truth, about = read_parameters(args.params), {"described": f"the reference rig with {args.params}"}
         experiments = None
     elif args.reference:
-        truth, about, experiments = {}, {"described": "MODEL.md's reference rig"}, None
+        truth, about, experiments = {}, {"described": "the reference rig"}, None
     else:
         truth, angle = draw_truth(args.seed)
         experiments = standard_experiments(abs(angle))

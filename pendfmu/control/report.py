@@ -83,8 +83,8 @@ def design_from(result, args) -> tuple[Design, dict[str, float], list[str]]:
     values, assumed = rig_values(result)
     resolutions = sidecar_resolutions(result)
     options = options_from(args, resolutions)
-    notes = [f"{name} = {values[name]:g}: not in the result, MODEL.md's reference value" for name in assumed]
-    notes += [f"encoder resolution of {name}: {'the sidecars' if name in resolutions else 'MODEL.md'}"
+    notes = [f"{name} = {values[name]:g}: not in the result, the reference rig's value" for name in assumed]
+    notes += [f"encoder resolution of {name}: " + ("the sidecars" if name in resolutions else "the reference rig's encoders")
               for name in ("x", "phi") if getattr(args, "d" + name) is None]
     return design(values, options), values, notes
 

@@ -212,7 +212,7 @@ DEFAULT_BOUNDS: dict[str, tuple[float, float, bool]] = {
     "J_p": (1e-6, 10.0, True), "w0": (-20.0, 20.0, False),
     # The friction terms' boxes, the extras' included, are the joints' (pendfmu.friction).
     **FRICTION_BOUNDS,
-    # Drives (README, Drives). k_u: a motor of k_M/R = 0.01-1 N.m/(V.ohm) on a 1-100 mm pitch
+    # Drives (docs/user-guide/drives.md). k_u: a motor of k_M/R = 0.01-1 N.m/(V.ohm) on a 1-100 mm pitch
     # gives 0.1 to 6e4 N per volt, a normalized PWM command the same times its full voltage.
     # k_emf = k_M^2 k_D^2 / R: from 1e-2 (a weak motor on a coarse pitch) to 1e5 N.s/m.
     # tau_e = L/R of the winding or a drive's filter: 0.1 ms to 1 s. A reversed sign of k_u
@@ -247,7 +247,7 @@ def rig_scales(values: Mapping[str, float], experiments: Sequence[Experiment]) -
                     current = max(current, largest)
         if "x" in experiment.recording.signals:
             speed = max(speed, largest_speed(experiment.time, experiment.recorded("x")))
-    # the drive's largest force: the current's through the motor, or the command's (README, Drives)
+    # the drive's largest force: the current's through the motor, or the command's (docs/user-guide/drives.md)
     force = max(values.get("k_M", 0.0) * values.get("k_D", 0.0) * current, abs(values.get("k_u", 0.0)) * command)
     if not force > 0:
         force = (values.get("m_c", 0.0) + values.get("m_p", 0.0)) * g
