@@ -200,7 +200,7 @@ CASES = {
     "start": {  # with a window that starts late: its initial states measured, not estimated
         "current": (["--window", "0.002:0.006", "--start", "measured"],
                     lambda p: all(r["estimated"] == [] for r in recordings_of(p))),
-        "cart": (["--window", "0.1:0.3", "--start", "measured"],
+        "cart": (["--window", "0.01:0.3", "--start", "measured"],
                  lambda p: all(r["estimated"] == [] for r in recordings_of(p))),
         "pendulum": (["--window", "0.2:0.6", "--start", "measured"],
                      lambda p: all("phi0" not in r["estimated"] for r in recordings_of(p))),
