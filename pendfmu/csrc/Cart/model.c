@@ -9,7 +9,7 @@
  * F_F is the three-mode stick-slip friction of friction.h, with its optional extras
  * (Stribeck speed v_Sc, asymmetries dk_fwc and dF_Kc, offset force F_Oc; all 0 by default).
  *
- * Drives beyond MODEL.md (README, Drives; all off by default): a command u beside the
+ * Drives beyond MODEL.md (docs/user-guide/drives.md; all off by default): a command u beside the
  * current, so that the motor force is
  *     F_u = k_M k_D I + F_cmd,   F_cmd = k_u u - k_emf v            (tau_e = 0)
  *                                tau_e dF_e/dt = k_u u - k_emf v - F_e,  F_cmd = F_e  (tau_e > 0)

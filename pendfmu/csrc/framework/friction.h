@@ -1,7 +1,7 @@
 /* The friction law of MODEL.md, shared by the cart and the pendulum joint: viscous,
  * Coulomb and stiction friction as a hybrid model with three modes,
  *   +1 sliding forward, 0 stuck, -1 sliding backward,
- * with optional extras (README, "Friction law extras"; the Python twin of this law and each
+ * with optional extras (docs/user-guide/friction.md, "Friction law extras"; the Python twin of this law and each
  * joint's parameter names: pendfmu/friction.py), all off at their default 0:
  *
  * While sliding in direction d = mode:
