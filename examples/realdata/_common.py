@@ -40,7 +40,6 @@ def _use_the_project_interpreter() -> None:
 _use_the_project_interpreter()
 
 import numpy as np  # noqa: E402
-from scipy.signal import savgol_filter  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -68,6 +67,8 @@ def load_example(name: str):
 
 def angular_rate(time: np.ndarray, phi: np.ndarray, window: int) -> np.ndarray:
     """The rate from a local cubic fit over `window` samples (odd)."""
+    from scipy.signal import savgol_filter  # here: scipy.signal takes a second to import, which a run
+                                            # that stops at a missing file should not spend
     return savgol_filter(phi, window, 3, deriv=1, delta=float(np.median(np.diff(time))))
 
 

@@ -16,7 +16,7 @@ model Cart "Cart on a lead screw driven by the DC motor, with viscous, Coulomb a
   parameter Real k_u(unit = "N") = 0.0 "Motor force per unit of the command u, before the screw's efficiency (0: no command path)";
   parameter Real k_emf(unit = "N.s/m") = 0.0 "Back-EMF of a voltage-driven motor: the command path's force falls by k_emf*v";
   parameter Real tau_e(unit = "s") = 0.0 "Electrical lag of the command path: tau_e*dF_e/dt = k_u*u - k_emf*v - F_e (0: no lag, the force follows u at once)";
-  parameter Real eta_back(unit = "1") = -1.0 "Back-drive efficiency of the screw: -1 (default) A(eta) = max(0, (2*eta-1)/eta) as MODEL.md; 0 self-locking whatever eta; in (0, 1] this efficiency";
+  parameter Real eta_back(unit = "1") = -1.0 "Back-drive efficiency of the screw: -1 (default) A(eta) = max(0, (2*eta-1)/eta) as the paper; 0 self-locking whatever eta; in (0, 1] this efficiency";
   parameter Real x0(unit = "m") = 0.0 "Initial position";
   parameter Real v0(unit = "m/s") = 0.0 "Initial speed";
   input Real I(unit = "A", start = 0.0) "Motor current";

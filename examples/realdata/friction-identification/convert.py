@@ -17,7 +17,6 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 from scipy.optimize import least_squares
-from scipy.signal import butter, filtfilt
 
 from pendfmu.recording import Recording, RecordingError, SignalInfo
 
@@ -213,6 +212,8 @@ def implied_friction(scope: ServoScope, load_cell: tuple[np.ndarray, np.ndarray]
     Two forces: ``drive``, the drive the fit sees (k_M k_D I, the torque reading times the
     load cell's scale, :func:`force_per_torque`), and ``load_cell``, the authors' force.
     Returns each bin's mean speed, sample count and both frictions [N]."""
+    from scipy.signal import butter, filtfilt  # here: a run that stops at a missing file imports no scipy.signal
+
     time, cell = load_cell
     dt = float(np.median(np.diff(scope.time)))
     b, a = butter(FILTER_ORDER, FILTER_HZ, fs=1.0 / dt)

@@ -16,7 +16,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-from scipy.signal import medfilt
 from scipy.stats import trim_mean
 
 from pendfmu.recording import Recording, RecordingError, SignalInfo, quantize
@@ -87,6 +86,8 @@ def first_step_estimate(trace: ScopeTrace) -> StepEstimate:
     The pre-step samples are those before 80 % of the time from the record's start to the
     half-way crossing, so that the rise itself never enters the baseline.
     """
+    from scipy.signal import medfilt  # here, not at the top: a run that stops at a missing file imports no scipy.signal
+
     time, current = trace.time, trace.current
     smooth = medfilt(current, DESPIKE)
     n = len(time)
