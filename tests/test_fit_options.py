@@ -49,7 +49,7 @@ def setup(tmp_path_factory):
         Trial("current-steps", "current", 0.008, 20e-6, ("I_c", "I"), steps((0, 0.0), (1e-3, 2.0), (5e-3, -1.0))),
         Trial("cart-startup", "cart", 0.4, 2e-4, ("I_c", "I", "x", "v"), steps((0, 0.0), (0.02, 3.0), (0.2, 0.0)),
                    sidecar_parameters={"m_p": 0.0}, known_initial=("x", "v")),
-        Trial("pendulum-decay", "pendulum", 1.2, 2e-4, ("a", "phi", "w"), lambda t: 0.0,
+        Trial("pendulum-decay", "pendulum", 0.8, 2e-4, ("a", "phi", "w"), lambda t: 0.0,
                    truth_overrides={"phi0": math.pi + 0.4, "w0": 0.0}, known_initial=("w",)),
     ]
     write_experiments(rig, {}, seed=3, experiments=experiments)
@@ -192,7 +192,7 @@ CASES = {
     "segment": {
         "current": (["--segment", "0.004"], lambda p: len(recordings_of(p)) == 2),
         "cart": (["--segment", "0.2"], lambda p: len(recordings_of(p)) == 2),
-        "pendulum": (["--segment", "0.6"], lambda p: len(recordings_of(p)) == 2),
+        "pendulum": (["--segment", "0.4"], lambda p: len(recordings_of(p)) == 2),
         "all": None,
         "fmu": (["--segment", "1"], lambda p: len(recordings_of(p)) > 1),
         "system": (["--segment", "0.2"], lambda p: len(recordings_of(p)) == 2),
