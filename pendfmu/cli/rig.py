@@ -1,7 +1,7 @@
 """The virtual rig: write the paper's experiments as recordings, with the truth beside.
 
 By default the rig is not the reference rig (the user guide's model page): every identified
-parameter is drawn from the seed around the reference values (virtual_rig.draw_truth), so that a fit, which
+parameter is drawn from the seed around the reference values, so that a fit, which
 starts from the reference values, has to find it. ``--reference`` records the
 reference rig itself; ``--params`` a rig you describe. truth.json says which.
 """
