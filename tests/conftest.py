@@ -19,11 +19,15 @@ from pendfmu.fmubuild import build_all
 os.environ.setdefault("PENDFMU_WORKERS", "1")
 
 
-FIRST = ("test_docs_runs.py", "test_fit_options.py", "test_identification.py", "test_faults_workers.py",
-         "test_reference_fmus.py", "test_examples_realdata.py", "test_coverage_benchmark.py", "test_realdata_fits.py",
-         "test_wheel.py", "test_reference_mutants.py", "test_laws.py", "test_control.py", "test_validation.py",
-         "test_distributed.py", "test_report_browser.py", "test_check.py")
-"""The longest modules, longest first (the sums of --durations=0 over a whole run), started
+FIRST = ("test_docs_runs.py", "test_fit_options.py", "test_reference_fmus.py", "test_reference_mutants.py",
+         "test_identification.py", "test_wheel.py", "test_coverage_benchmark.py", "test_faults_workers.py",
+         "test_examples_realdata.py", "test_realdata_fits.py", "test_laws.py", "test_validation.py",
+         "test_control.py", "test_report_browser.py", "test_check.py", "test_real_data_handling.py",
+         "test_distributed.py", "test_docs_site.py", "test_win64.py", "test_check_corpus.py",
+         "test_friction_extras.py", "test_data_handling.py", "test_loop_events.py", "test_reference_rig.py",
+         "test_check_exercise.py", "test_check_hostile.py", "test_fmi3.py", "test_search_box.py",
+         "test_foreign_fit.py", "test_realdata.py", "test_bootstrap.py")
+"""The modules of 15 s or more, longest first (the sums of --durations=0 over a whole run), started
 first: `make test` runs the modules on two pytest-xdist workers (--dist loadfile: a module
 whole on one, so that its module-scoped fits run once; --no-loadscope-reorder: in this
 order), and a long module started last would run alone at the end."""
