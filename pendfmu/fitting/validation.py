@@ -56,7 +56,7 @@ def halves(problem: Problem, at_the_split: Mapping[str, Mapping[str, float]] | N
         recording = experiment.recording
         if not long_enough(recording):
             continue
-        middle = float(recording.time[len(recording.time) // 2])
+        middle = float(recording.time[split_index(recording)])
         late = recording.window(middle, float(recording.time[-1]))
         states = (at_the_split or {}).get(experiment.name)
         if states:
@@ -67,7 +67,13 @@ def halves(problem: Problem, at_the_split: Mapping[str, Mapping[str, float]] | N
 
 
 def long_enough(recording) -> bool:
+    """Whether a recording is split: each half holds at least MIN_HALF samples."""
     return len(recording.time) >= 2 * MIN_HALF
+
+
+def split_index(recording) -> int:
+    """The sample where the early half ends and the late one starts (both hold it)."""
+    return len(recording.time) // 2
 
 
 def split_states(problem: Problem, simulate: Callable[[tuple[str, ...]], list[dict[str, np.ndarray]]]
@@ -88,7 +94,7 @@ def split_states(problem: Problem, simulate: Callable[[tuple[str, ...]], list[di
         return {}
     found = {}
     for experiment in experiments:
-        middle = len(experiment.recording.time) // 2
+        middle = split_index(experiment.recording)
         states = {p: float(simulated[experiment.name][o][middle]) for p, o in experiment.setup.unseen.items()}
         found[experiment.name] = {p: v for p, v in states.items() if math.isfinite(v)}
     return found
