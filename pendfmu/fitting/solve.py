@@ -33,7 +33,8 @@ from pendfmu.fitting.ripple import fit_with_ripple, looks_for_ripple
 from pendfmu.fitting.spec import FitSpec
 from pendfmu.fitting.stiction import JOINTS, bound_stiction
 from pendfmu.fitting.uncertainty import assess_uncertainty
-from pendfmu.fitting.validation import hold_the_halves, mark_moving, moving, separately, split_states, validate
+from pendfmu.fitting.validation import (Started, hold_the_halves, mark_moving, moving, separately, split_states,
+                                       validate)
 
 
 @dataclass
@@ -129,14 +130,14 @@ def solve_problem(problem: Problem, spec: FitSpec, session: Session,
     return found.result(spec, physical(free, u0))
 
 
-def fit_a_half(spec: FitSpec) -> dict | None:
-    """A half of the recordings fitted as the whole was (validation.py), its shared estimates;
-    None when it cannot be simulated."""
+def fit_a_half(spec: FitSpec) -> tuple[dict, float] | None:
+    """A half of the recordings fitted as the whole was (validation.py): its shared estimates
+    and its sum of squares; None when it cannot be simulated."""
     try:
         result = solve_problem(build_problem(spec), spec, Session(progress=False), validating=False)
     except FMUError:
         return None
-    return {label: e for label, e in result.estimates.items() if not is_own(label)}
+    return {label: e for label, e in result.estimates.items() if not is_own(label)}, 2.0 * result.cost
 
 
 def interval_method(asked: str, verdict: dict) -> str:
@@ -198,11 +199,15 @@ class _Found:
         adequate = self.verdict["verdict"] == "adequate"
         started = time.perf_counter()
         at_the_split = split_states(self.problem, lambda outputs: self.residuals.simulate(self.outcome.u, outputs))
-        consistency = validate(spec, self.problem, {**self.problem.values, **self.fitted},
+        residual = self.outcome.residual
+        whole = Started(float(residual @ residual), len(residual))
+        consistency = validate(spec, self.problem, {**self.problem.values, **self.fitted}, whole,
                                None if adequate else fit_a_half, at_the_split)
         if consistency:  # what the validation cost, beside the search's fit.seconds (scripts/interval_cost.py)
             consistency["seconds"] = time.perf_counter() - started
         self.verdict["windows"] = consistency
+        if "note" in consistency:
+            self.notes.append(consistency["note"])
         if not adequate:
             hold_the_halves(self.estimates, consistency)
         self.verdict["evidence"] += mark_moving(self.estimates, moving(consistency, adequate))

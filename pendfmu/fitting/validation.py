@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -46,6 +46,9 @@ from pendfmu.fitting.statistics import CORRELATION_LIMIT, Z95, sandwich_estimate
 
 MIN_HALF = 400  # samples each half of a recording must hold for it to be split
 WHICH = ("early", "late")
+# A half whose refit leaves more than this times the whole fit's squared error (Started)
+# did not start where its recordings are: no validation by halves.
+START_LIMIT = 2.0
 
 
 def halves(problem: Problem, at_the_split: Mapping[str, Mapping[str, float]] | None = None) -> dict[str, list]:
@@ -117,6 +120,7 @@ class LocalPart:
         self.problem = build_problem(spec)
         self.residuals = Residuals(self.problem.experiments, self.problem.free, self.problem.values, spec.cost)
         self.u: np.ndarray | None = None
+        self.squares = math.nan  # the refit's sum of squared scaled residuals
 
     def refit(self) -> dict[str, Estimate] | None:
         """The shared estimates refitted; None when the half cannot be simulated."""
@@ -127,7 +131,7 @@ class LocalPart:
             estimates, _, _ = sandwich_estimates(problem.free, u, jacobian, residual, self.residuals.series())
         except (FMUError, ArithmeticError, np.linalg.LinAlgError):
             return None
-        self.u = u
+        self.u, self.squares = u, float(residual @ residual)
         return {label: e for label, e in estimates.items() if not is_own(label)}
 
     def spread_with(self, shared: Mapping[str, Estimate]) -> float | None:
@@ -147,42 +151,48 @@ class LocalPart:
 
 
 def local_parts(specs: Mapping[str, FitSpec]) -> tuple[dict, dict | None]:
-    """Both halves refitted locally (LocalPart), and how each half's values predict the
-    other: {"early on late": spread, "late on early": spread}; None for a half that could
-    not be simulated."""
+    """Both halves refitted locally (LocalPart): per half (its shared estimates, its sum of
+    squares), None for a half that could not be simulated; and how each half's values
+    predict the other: {"early on late": spread, "late on early": spread}."""
     parts = {which: LocalPart(spec) for which, spec in specs.items()}
     try:
         found = {which: part.refit() for which, part in parts.items()}
         if any(estimates is None for estimates in found.values()):
-            return found, None
+            return dict.fromkeys(parts), None
         early, late = WHICH
         prediction = {f"{early} on {late}": parts[late].spread_with(found[early]),
                       f"{late} on {early}": parts[early].spread_with(found[late])}
-        return found, prediction
+        return {which: (found[which], part.squares) for which, part in parts.items()}, prediction
     finally:
         for part in parts.values():
             part.close()
 
 
-def validate(spec: FitSpec, problem: Problem, values: Mapping[str, float],
-             fit_part: Callable[[FitSpec], dict[str, Estimate] | None] | None = None,
+def validate(spec: FitSpec, problem: Problem, values: Mapping[str, float], whole: Started,
+             fit_part: Callable[[FitSpec], tuple[dict[str, Estimate], float] | None] | None = None,
              at_the_split: Mapping[str, Mapping[str, float]] | None = None) -> dict:
     """The early and late halves refitted and compared (module docstring): per part its
     estimates, and per parameter how far it moves, in combined intervals, and which way.
     `fit_part` fits a part as the whole was fitted (its global search and intervals: a fit
-    that misses something); without it each part is refitted locally (LocalPart), and each
-    half's values tried on the other. `at_the_split`: split_states."""
+    that misses something), returning its shared estimates and its sum of squares; without
+    it each part is refitted locally (LocalPart), and each half's values tried on the other.
+    `whole`: what the whole fit left (Started); `at_the_split`: split_states."""
     split = halves(problem, at_the_split)
     if not split["early"]:
         return {}
     search = fit_part is not None
     specs = {which: part_spec(spec, split[which], values, search) for which in WHICH}
     if search:
-        parts, prediction = {which: fit_part(s) for which, s in specs.items()}, None
+        fitted, prediction = {which: fit_part(s) for which, s in specs.items()}, None
     else:
-        parts, prediction = local_parts(specs)
-    if any(part is None for part in parts.values()):
+        fitted, prediction = local_parts(specs)
+    if any(part is None for part in fitted.values()):
         return {"note": "a half could not be simulated at the fit's optimum: no validation"}
+    squares = {which: value for which, (_, value) in fitted.items()}
+    astray = whole.astray(squares)
+    if astray:
+        return {"note": whole.note(astray, squares[astray], [r.label for r in split[astray]])}
+    parts = {which: estimates for which, (estimates, _) in fitted.items()}
     parameters = {name: _movement(parts["early"][name], parts["late"].get(name)) for name in parts["early"]}
     found = {"recordings": [r.label for r in split["early"]],
              "method": "fits of the halves" if search else "local refits of the halves, sandwich intervals",
@@ -191,6 +201,37 @@ def validate(spec: FitSpec, problem: Problem, values: Mapping[str, float],
     if prediction is not None:
         found["prediction"] = prediction
     return found
+
+
+@dataclass(frozen=True)
+class Started:
+    """What the whole fit left, to tell whether a half started where its recordings are.
+    At the whole fit's values a half that starts where the whole fit's simulation has its
+    recordings reproduces the whole fit's residuals on its samples, a part of the whole's
+    sum of squares, and its refit can only lower that. A half whose refit leaves more than
+    START_LIMIT times that sum (at least one per sample: the noise) started elsewhere, and
+    its estimates say nothing of the model: an FMU with no parameter for a state at the
+    split (a pythonfmu slider with no x0 started its late half at rest at x = 0, 13,000
+    times the noise from its recording, and reported c 40 [0.037, 43420] for the truth 4),
+    or an initial state given as a parameter, which holds for every window (EMPS's late
+    half began at the file's first position, 66 times the whole's squared error, said M
+    76.3 kg for 94.9, and widened M's interval to [76.3, 95.2])."""
+
+    squares: float  # the whole fit's sum of squared scaled residuals
+    samples: int  # and their number
+
+    def astray(self, squares: Mapping[str, float]) -> str | None:
+        """The first half (of `squares`: its refit's sum of squares) that did not start
+        where its recordings are, or None."""
+        limit = START_LIMIT * max(self.squares, self.samples)
+        return next((which for which, value in squares.items() if not value <= limit), None)
+
+    def note(self, which: str, squares: float, recordings: list[str]) -> str:
+        return (f"not validated by halves: refitted alone, the {which} halves ({', '.join(recordings)}) leave a sum "
+                f"of squared scaled errors of {squares:.4g} where the whole fit left {self.squares:.4g} on all its "
+                f"samples, so they cannot start where their recordings are: the model has no initial-value "
+                f"parameter for a state at the split, or nothing recorded tells it (name it with --initial "
+                f"SIGNAL=PARAMETER)")
 
 
 def _movement(early: Estimate, late: Estimate | None) -> dict | None:
