@@ -58,7 +58,7 @@ def fitted_values(seed: int, work: Path, truth: bool) -> dict[str, float]:
 
 
 def one_run(job: tuple) -> dict:
-    """One closed-loop run: (seed, values, task, phi0, compensation, duration) -> its figures."""
+    """One closed-loop run: (seed, values, weights, task, phi0, compensation, duration) -> its figures."""
     from control_loop import close_loop, verdict
     from reference_rig import DEFAULTS
 
@@ -66,9 +66,11 @@ def one_run(job: tuple) -> dict:
     from pendfmu.control import Controller, Options, design
     from pendfmu.virtual_rig import draw_truth
 
-    seed, values, task, phi0, compensation, duration = job
+    from pendfmu.control.design import Weights
+
+    seed, values, weights, task, phi0, compensation, duration = job
     truth = {**rig_defaults(), **draw_truth(seed)[0]}
-    law = Controller(design(values, Options(task=task, compensation=compensation)))
+    law = Controller(design(values, Options(task=task, compensation=compensation, weights=Weights(**weights))))
     run = close_loop({k: v for k, v in truth.items() if k in DEFAULTS}, law.step, T_s=1e-3, duration=duration,
                      phi0=phi0, dx=2 * math.pi / (1024 * truth["k_D"]))
     figures = verdict(run, window=10.0)
@@ -83,6 +85,8 @@ def row(r: dict) -> str:
 
 
 def main(argv=None) -> int:
+    from pendfmu.control.design import Weights
+
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4, 5, 7, 9, 11, 13])
     parser.add_argument("--work", type=Path, default=Path("out/control"))
@@ -91,7 +95,11 @@ def main(argv=None) -> int:
     parser.add_argument("--truth", action="store_true", help="design from the true values (no fit)")
     args = parser.parse_args(argv)
     args.work.mkdir(parents=True, exist_ok=True)
-    jobs = [(seed, fitted_values(seed, args.work, args.truth), task, phi0, compensation, args.duration)
+    values = {seed: fitted_values(seed, args.work, args.truth) for seed in args.seeds}
+    weights = {seed: {} if args.truth else designed(seed, args.work, args.duration)["weights"] for seed in args.seeds}
+    print("LQR weights, as `pendfmu control --tune` chose them:\n" + "\n".join(
+        f"  {seed}: {Weights(**weights[seed]).text()}" for seed in args.seeds) + "\n", flush=True)
+    jobs = [(seed, values[seed], weights[seed], task, phi0, compensation, args.duration)
             for seed in args.seeds for task, phi0 in RUNS for compensation in (True, False)]
     print("| seed | eta | task | compensation | capture [s] | RMS phi [steps] | RMS x [mm] | RMS I_c [A] "
           "| max abs x [mm] | criteria |\n|---|---|---|---|---|---|---|---|---|---|", flush=True)
@@ -102,21 +110,25 @@ def main(argv=None) -> int:
         print("\npendfmu control's own verification over each fit's bootstrap replicates (compensation on):\n\n"
               "| seed | task | identified model | replicates meeting the criteria |\n|---|---|---|---|", flush=True)
         for seed in args.seeds:
-            for summary in verified(seed, args.work, args.duration):
+            for summary in designed(seed, args.work, args.duration)["summary"]:
                 if summary["compensation"]:
                     print(f"| {seed} | {summary['task']} | {'meets' if summary['identified']['meets'] else 'MISSES'} "
                           f"| {summary['replicates_meeting']} of {summary['replicates']} |", flush=True)
     return 0
 
 
-def verified(seed: int, work: Path, duration: float) -> list[dict]:
-    """`pendfmu control` on seed's fit (swing-up and balance): its verification's summary rows."""
+def designed(seed: int, work: Path, duration: float) -> dict:
+    """`pendfmu control --tune` on seed's fit (swing-up and balance), made once: the LQR
+    weights it chose ("weights") and its verification's summary rows ("summary")."""
     import json
 
     out = work / f"control{seed}"
-    subprocess.run([sys.executable, "-m", "pendfmu", "control", str(work / f"fit{seed}.json"), "--out", str(out),
-                    "--task", "swing-up", "--duration", str(duration)], check=True, stdout=subprocess.DEVNULL)
-    return json.loads((out / "verification.json").read_text())["summary"]
+    if not (out / "verification.json").exists():
+        subprocess.run([sys.executable, "-m", "pendfmu", "control", str(work / f"fit{seed}.json"), "--out", str(out),
+                        "--task", "swing-up", "--duration", str(duration), "--tune"], check=True,
+                       stdout=subprocess.DEVNULL)
+    return {"weights": json.loads((out / "design.json").read_text())["weights"],
+            "summary": json.loads((out / "verification.json").read_text())["summary"]}
 
 
 if __name__ == "__main__":

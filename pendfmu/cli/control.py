@@ -92,8 +92,13 @@ def run(args: argparse.Namespace) -> int:
         tuning = tune(values, options, replicates, ssp, args.duration, requirements, args.workers, args.scheduler,
                       say=lambda line: print(line, flush=True))
         the_design = design(values, dataclasses.replace(options, weights=tuning.weights))
-        notes.append(f"weights tuned to the requirements by simulation: {len(tuning.tried)} designs tried")
-    paths = write_outputs(the_design, values, notes, out)
+        weights = tuning.weights
+        notes.append(f"LQR weights tuned to the requirements by simulation ({len(tuning.tried)} designs tried): "
+                     f"{weights.text()} (--weights designs with them again, without tuning)")
+    else:
+        weights = options_from(args, sidecar_resolutions(result)).weights
+        notes.append(f"LQR weights: {weights.text()}")
+    paths = write_outputs(the_design, values, notes, out, weights)
     if not args.no_verify:
         which = (f"the identified model and {len(replicates)} bootstrap replicates" if replicates else
                  "the identified model only (the result holds no bootstrap replicates)")

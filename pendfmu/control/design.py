@@ -57,6 +57,10 @@ class Weights:
     w: float = 1.0
     a: float = 1.0
 
+    def text(self) -> str:
+        """As `pendfmu control --weights` takes them: "x=0.02 phi=0.01 ..."."""
+        return " ".join(f"{name}={getattr(self, name):.3g}" for name in ("x", "phi", "v", "w", "a"))
+
 
 @dataclass(frozen=True)
 class Options:

@@ -8,6 +8,7 @@ time constants), the limits.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -153,12 +154,16 @@ def write_loop_ssp(the_design: Design, values: dict[str, float], out: Path, buil
     return write_ssp(system, out / "ClosedLoop.ssp")
 
 
-def write_outputs(the_design: Design, values: dict[str, float], notes: list[str], out: Path) -> list[Path]:
-    """The two FMUs, the closed loop's SSP, design.json and report.md in `out`."""
+def write_outputs(the_design: Design, values: dict[str, float], notes: list[str], out: Path,
+                  weights: Weights | None = None) -> list[Path]:
+    """The two FMUs, the closed loop's SSP, design.json and report.md in `out`; design.json
+    names the LQR `weights` the design was made with (a tuning's, to design with again)."""
     out.mkdir(parents=True, exist_ok=True)
     paths = write_fmus(the_design, out)
     paths.append(write_loop_ssp(the_design, values, out))
     document = {"parameters": fmu_parameters(the_design), "notes": notes, "poles": closed_loop_poles(the_design)}
+    if weights is not None:
+        document["weights"] = dataclasses.asdict(weights)
     paths.append(write_atomically(out / "design.json", json.dumps(document, indent=2) + "\n"))
     paths.append(write_atomically(out / "report.md", report_text(the_design, notes)))
     return paths

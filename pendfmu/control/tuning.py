@@ -69,7 +69,7 @@ def _search(values, options, replicates, ssp, duration, requirements, run, budge
     best = options.weights
     best_score, best_outcomes = judged(best)
     tried = [(dataclasses.asdict(best), best_score)]
-    say(f"tuning: start {_weights_text(best)}: {_score_text(best_score)}")
+    say(f"tuning: start {best.text()}: {_score_text(best_score)}")
     factor = 2.0
     while best_score[0] > 0 and len(tried) < budget:  # tuned to the requirements once every run meets them
         improved = False
@@ -83,7 +83,7 @@ def _search(values, options, replicates, ssp, duration, requirements, run, budge
                     if not found < best_score:
                         break
                     best, best_score, best_outcomes, improved, moved = candidate, found, outcomes, True, True
-                    say(f"tuning: {_weights_text(best)}: {_score_text(found)}")
+                    say(f"tuning: {best.text()}: {_score_text(found)}")
                 if moved:
                     break
         if not improved:
@@ -97,7 +97,3 @@ def _search(values, options, replicates, ssp, duration, requirements, run, budge
 
 def _score_text(found: tuple[float, float]) -> str:
     return f"missed by {found[0]:.3g} in all (log), worst run at {found[1]:.3g} of its limits"
-
-
-def _weights_text(weights) -> str:
-    return " ".join(f"{name}={getattr(weights, name):.3g}" for name in TUNED)
