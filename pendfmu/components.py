@@ -4,8 +4,8 @@ source of truth.
 Everything that names a variable is generated from these tables: each FMU's
 ``modelDescription.xml``, the C header with its value references, start values and
 allowed ranges, and (in tests) the comparison with the Modelica library. Names, units
-and defaults follow ``MODEL.md``; other tools script against them, so changing a name
-here is a breaking change.
+and defaults follow the paper's model (``docs/user-guide/model.md``); other tools script
+against them, so changing a name here is a breaking change.
 
 Value references are assigned by position: Real variables first, then Integer, then
 Boolean, numbered consecutively, so every variable of an FMU has a distinct reference.
@@ -20,18 +20,18 @@ from dataclasses import dataclass
 SOLVER_STEP = 1e-4
 
 # A lead screw with eta <= 0.5 is self-locking: the pendulum cannot push the cart back
-# (MODEL.md: A(eta) = max(0, (2 eta - 1) / eta) is zero there), so a rig needs the
-# pendulum's state fed back to the cart only above it.
+# (the paper's model, docs/user-guide/model.md: A(eta) = max(0, (2 eta - 1) / eta) is zero
+# there), so a rig needs the pendulum's state fed back to the cart only above it.
 SELF_LOCKING_ETA = 0.5
 
-# eta_back < 0 (its default, -1) keeps MODEL.md's switch: the back-drive efficiency is A(eta).
+# eta_back < 0 (its default, -1) keeps the paper's switch: the back-drive efficiency is A(eta).
 # 0 makes the screw self-locking whatever eta (eta is then only the drive's efficiency);
 # a value in (0, 1] is the back-drive efficiency itself (a back-drivable screw or belt).
 ETA_BACK_FROM_ETA = -1.0
 
 
 def back_drive_efficiency(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> float:
-    """A, the factor on the pendulum's push in F_A (MODEL.md's A(eta) unless eta_back says
+    """A, the factor on the pendulum's push in F_A (the paper's A(eta) unless eta_back says
     otherwise: docs/user-guide/drives.md). 0 means a self-locking screw."""
     if eta_back < 0:
         return max(0.0, (2.0 * eta - 1.0) / eta) if eta > SELF_LOCKING_ETA else 0.0
@@ -147,11 +147,11 @@ def _t_mode():
 
 
 def _friction_extras(joint, *, speed, viscous, coulomb, stiction, names):
-    """A joint's optional friction terms beyond MODEL.md (docs/user-guide/friction.md, "Friction law extras";
-    pendfmu.friction names each joint's terms): the Stribeck speed and the direction
-    asymmetries of the viscous and Coulomb terms. Each is 0 by default, which switches it
-    off: the paper's law stays exact. `speed`, `viscous` and `coulomb` are (name, unit)
-    pairs of the joint's variables; `names` the three new ones."""
+    """A joint's optional friction terms beyond the paper's model (docs/user-guide/friction.md,
+    "Friction law extras"; pendfmu.friction names each joint's terms): the Stribeck speed and
+    the direction asymmetries of the viscous and Coulomb terms. Each is 0 by default, which
+    switches it off: the paper's law stays exact. `speed`, `viscous` and `coulomb` are (name,
+    unit) pairs of the joint's variables; `names` the three new ones."""
     (w, w_unit), (k, k_unit), (F_K, F_unit) = speed, viscous, coulomb
     v_S, dk, dF = names
     return (
@@ -207,7 +207,8 @@ CART = Component(
         *_friction_extras("the cart", speed=("v", "m/s"), viscous=("k_fwc", "N.s/m"), coulomb=("F_Kc", "N"),
                           stiction="F_Sc", names=("v_Sc", "dk_fwc", "dF_Kc")),
         _param("F_Oc", 0.0, "N", "Constant offset force on the cart along +x (cable drag, a tilted track)"),
-        # Drives beyond MODEL.md (docs/user-guide/drives.md): a command u beside the current, all off at 0.
+        # Drives beyond the paper's model (docs/user-guide/drives.md): a command u beside the
+        # current, all off at 0.
         _param("k_u", 0.0, "N", "Motor force per unit of the command u, before the screw's efficiency "
                                 "(0: no command path)"),
         _param("k_emf", 0.0, "N.s/m", "Back-EMF of a voltage-driven motor: the command path's force falls by "
@@ -368,9 +369,9 @@ def _rig_controller_parameters() -> tuple[Variable, ...]:
                            "when the loop is closed on a continuous model; leave 0 on the rig"),
         ("phi_quantum", "rad", "Input phi rounded to a multiple of this before use (0: as given), as x_quantum"),
     )
-    # MODEL.md's reference rig and its design with the default options, to 6 digits (checked
-    # against a fresh design by tests/test_control.py): the FMU as built balances that rig;
-    # `pendfmu control` writes a fit's design as the starts
+    # The reference rig (docs/user-guide/model.md) and its design with the default options, to
+    # 6 digits (checked against a fresh design by tests/test_control.py): the FMU as built
+    # balances that rig; `pendfmu control` writes a fit's design as the starts
     reference = {"M": 3.2, "m_p": 0.2, "l": 0.3, "J_p": 0.024, "g": 9.81, "eta": 0.4, "k_F": 0.06 * 628.3,
                  "k_fwc": 30.0, "F_Kc": 8.0, "F_Sc": 12.0, "k_fwp": 1e-3, "T_i": 0.3e-3, "dIdt_max": 2500.0,
                  "I_max": 5.0, "x_max": 0.4, "phi_catch": 0.3, "v_stuck": 5e-3, "F_ramp": 3.0,
@@ -431,6 +432,7 @@ def parameter_table() -> dict[str, Variable]:
 
 
 def rig_defaults() -> dict[str, float]:
-    """MODEL.md's reference rig: every rig parameter at its table default. solver_step is
-    left out: it is a setting of each FMU's integrator, not a property of the rig."""
+    """The paper's reference rig (docs/user-guide/model.md): every rig parameter at its table
+    default. solver_step is left out: it is a setting of each FMU's integrator, not a property
+    of the rig."""
     return {name: float(variable.start) for name, variable in parameter_table().items() if name != "solver_step"}

@@ -80,7 +80,8 @@ def _plot_decay(frame: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
-# The demo's rig: worn, with more friction than MODEL.md's reference, which the fit starts from.
+# The demo's rig: worn, with more friction than the reference rig (docs/user-guide/model.md),
+# which the fit starts from.
 DEMO_TRUTH = {"T_i": 0.4e-3, "dIdt_max": 2300.0, "eta": 0.37, "k_fwc": 36.0, "F_Kc": 9.5, "F_Sc": 14.0,
               "k_fwp": 1.4e-3, "T_Kp": 2.6e-3, "T_Sp": 5.0e-3, "a_h": 0.02, "f_h": 1900.0, "phase_h": 0.3}
 

@@ -1,11 +1,12 @@
 """The joints' friction law, once for Python: each joint's declaration and a twin of friction.h.
 
-The FMUs compute the law in ``pendfmu/csrc/framework/friction.h``: MODEL.md's viscous,
-Coulomb and stiction friction with the optional extras of the user guide's "Friction law
-extras" (docs/user-guide/friction.md) (a Stribeck speed, direction asymmetries of the viscous and Coulomb terms, a
-constant offset force, quadratic drag), each off at 0. Everything in Python that needs the
-law or a joint's names reads them here: the report's friction figure, the stiction
-analysis, the stages' search boxes and the virtual rig.
+The FMUs compute the law in ``pendfmu/csrc/framework/friction.h``: the paper's viscous,
+Coulomb and stiction friction (docs/user-guide/model.md) with the optional extras of the
+user guide's "Friction law extras" (docs/user-guide/friction.md) (a Stribeck speed, direction
+asymmetries of the viscous and Coulomb terms, a constant offset force, quadratic drag), each
+off at 0. Everything in Python that needs the law or a joint's names reads them here: the
+report's friction figure, the stiction analysis, the stages' search boxes and the virtual
+rig.
 
 ``Law`` is friction.h's ``Friction`` struct with its functions, vectorized over speeds and
 forces and written with the same operations in the same order, so that it agrees with the
@@ -183,7 +184,7 @@ class Joint:
 
     @property
     def plain(self) -> tuple[str, str, str]:
-        """MODEL.md's three: viscous, Coulomb, stiction."""
+        """The paper's three: viscous, Coulomb, stiction."""
         return self.viscous, self.coulomb, self.stiction
 
     @property

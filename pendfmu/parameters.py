@@ -1,7 +1,8 @@
-"""Parameter files: JSON ``{"parameters": {"name": value, ...}}`` with MODEL.md names.
+"""Parameter files: JSON ``{"parameters": {"name": value, ...}}`` with the rig's names.
 
-Names are those of the component tables. A name that several components share (m_p and l
-are in Cart and Pendulum) means the same physical quantity and goes to all of them.
+Names are those of the component tables (docs/reference/variables.md). A name that several
+components share (m_p and l are in Cart and Pendulum) means the same physical quantity and
+goes to all of them.
 Absent names keep the FMU defaults. An unknown name, a value that is not a finite number,
 or a value outside its physical range is a :class:`ParameterFileError` that names the
 file, the parameter and what is allowed. The pendulum's inertia may be given about its
@@ -97,8 +98,9 @@ def recording_values(values: Mapping[str, float], recording) -> dict[str, float]
 
 def read_parameters(path: str | Path, check: Callable[[Mapping[str, object], str], dict[str, float]] | None = None
                     ) -> dict[str, float]:
-    """The checked parameter values of a parameters file: checked against MODEL.md's
-    table, or by `check(values, file)` (a user's model checks its own names)."""
+    """The checked parameter values of a parameters file: checked against the
+    parameter table (docs/reference/variables.md), or by `check(values, file)` (a user's model
+    checks its own names)."""
     path = Path(path)
     try:
         text = path.read_text()

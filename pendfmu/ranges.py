@@ -9,7 +9,7 @@ way: ``m_c = -1 is outside its physical range (0, inf)``.
 
 A variable here is a row of the component table (components.Variable) or what a model
 description declares (simulator.model.Variable): see Ranged. A table row may also exclude an
-open interval inside its range (``excluded``): the Cart's eta_back is -1 (MODEL.md's switch)
+open interval inside its range (``excluded``): the Cart's eta_back is -1 (the paper's switch)
 or a back-drive efficiency in [0, 1], nothing in between (docs/user-guide/drives.md).
 """
 

@@ -3,14 +3,14 @@ and recorded through models of the rig's sensors.
 
 Each experiment runs only the FMUs the real one involves (the current loop alone, the
 cart without pendulum, the pendulum with the cart still, or the whole rig), samples the
-true signals and passes them through the sensors of MODEL.md:
+true signals and passes them through the sensors of the paper's rig (docs/user-guide/model.md):
 
 - motor encoder, 1024 counts per revolution: x in steps of 2 pi / (1024 k_D);
 - 10-bit absolute pendulum encoder: phi in steps of 2 pi / 1024;
 - current: the PWM ripple is the current loop's harmonic (a_h, f_h, phase_h of the
   truth), read by a 12-bit ADC over +-10 A with Gaussian noise, seeded.
 
-Recordings are written as CSV + sidecar (MODEL.md format) with ``truth.json`` beside.
+Recordings are written as CSV + sidecar (pendfmu/recording/FORMAT.md) with ``truth.json`` beside.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ TRUTH_SUBSTEPS = 10
 
 
 # The parameters each stage of the paper identifies: what a drawn truth varies.
-# A joint's MODEL.md friction in the order viscous, Coulomb, stiction: stiction is drawn
+# A joint's friction (the paper's law) in the order viscous, Coulomb, stiction: stiction is drawn
 # relative to the Coulomb friction drawn before it.
 STAGE_PARAMETERS = {"current": ("T_i", "dIdt_max", "a_h", "f_h", "phase_h"),
                     "cart": ("eta", *CART.plain),
@@ -59,7 +59,8 @@ RELEASE_ANGLE = 0.6  # rad from hanging: the free decay's release
 
 
 def reference_truth() -> dict[str, float]:
-    """MODEL.md's reference rig (the table's defaults) with the virtual converter's RIPPLE."""
+    """The reference rig (docs/user-guide/model.md; the table's defaults) with the virtual
+    converter's RIPPLE."""
     return {**rig_defaults(), **RIPPLE}
 
 
@@ -110,7 +111,8 @@ def draw_truth(seed: int, index: int = 0, spread: str = "standard") -> tuple[dic
 def cart_ramp_breaks_away(truth: Mapping[str, float]) -> bool:
     """Whether the cart of `truth` breaks away in the cart-ramp experiment: the drive force
     eta k_M k_D I at the ramp's last command exceeds the breakaway threshold max(F_Sc, F_Kc)
-    (MODEL.md; the current follows its slow command within T_i, a fraction of a sample)."""
+    (the paper's friction law; the current follows its slow command within T_i, a fraction of
+    a sample)."""
     values = {**reference_truth(), **truth}
     ramp = next(e for e in standard_experiments() if e.name == "cart-ramp")
     force = values["eta"] * values["k_M"] * values["k_D"] * ramp.drive(ramp.duration)
@@ -142,8 +144,8 @@ class Trial:
 
 
 def standard_experiments(release_angle: float = RELEASE_ANGLE) -> list[Trial]:
-    """The paper's sequence (MODEL.md, 'The identification experiments'); the free decay
-    starts `release_angle` from hanging."""
+    """The paper's sequence (docs/user-guide/model.md, 'The identification experiments'); the
+    free decay starts `release_angle` from hanging."""
     experiments = [
         Trial("current-steps", "current", 0.022, 20e-6, ("I_c", "I"),
                    steps((0, 0.0), (1e-3, 1.5), (6e-3, 3.0), (11e-3, 0.5), (16e-3, -2.0)),

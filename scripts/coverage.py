@@ -1,7 +1,7 @@
 """Coverage benchmark of the fit's 95 % intervals (issue 12): do they hold the truth?
 
-For each of N truths drawn around MODEL.md's reference rig, the six stage recordings
-(current steps, three cart runs without pendulum, pendulum decay and rocking) are
+For each of N truths drawn around the reference rig (docs/user-guide/model.md), the six stage
+recordings (current steps, three cart runs without pendulum, pendulum decay and rocking) are
 simulated by the independent reference simulator in tests/ (scripts/reference_recordings.py,
 not the FMUs the fit uses), read through the virtual rig's sensors with their own noise
 seed, and fitted by ``pendfmu.fit("all", ...)`` from the reference values. Per fitted parameter

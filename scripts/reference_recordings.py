@@ -18,7 +18,7 @@ integration restarts (for the steps a handful, for the slow current ramp one per
 sample). The rocking acceleration of ``pendulum-stiction`` is smooth: the FMU
 interpolates it linearly with its slope per step, the reference evaluates the sine.
 The measured current carries the PWM ripple; the cart is driven by the ripple-free
-current (MODEL.md), which the reference simulator does the same way.
+current (docs/user-guide/model.md), which the reference simulator does the same way.
 
     python scripts/reference_recordings.py --out DIR [--seed N]   # the six stage recordings
     python scripts/reference_recordings.py --compare              # FMU vs reference at the truth

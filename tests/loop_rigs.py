@@ -47,10 +47,10 @@ def _log_uniform(rng, low, high):
 
 
 def _random_mechanics(rng) -> tuple[dict[str, float], dict[str, float]]:
-    """Back-drivable (eta in (0.5, 1]) rigs around MODEL.md's, with wide friction ranges:
-    F_Sc >= F_Kc and T_Sp >= T_Kp (stick-slip); for 30 % of them pendulum friction of 2-20 %
-    of m_p g l, so that swings die out within the horizon and the pendulum sticks too; the
-    pendulum a rod or a bob (J_p up to 2 m_p l^2)."""
+    """Back-drivable (eta in (0.5, 1]) rigs around the reference rig (docs/user-guide/model.md),
+    with wide friction ranges: F_Sc >= F_Kc and T_Sp >= T_Kp (stick-slip); for 30 % of them
+    pendulum friction of 2-20 % of m_p g l, so that swings die out within the horizon and the
+    pendulum sticks too; the pendulum a rod or a bob (J_p up to 2 m_p l^2)."""
     m_p, l = rng.uniform(0.05, 0.5), rng.uniform(0.1, 0.5)
     params = dict(eta=1.0 if rng.random() < 0.1 else rng.uniform(0.501, 1.0), m_c=rng.uniform(1.0, 5.0),
                   m_p=m_p, l=l, J_p=0.0 if rng.random() < 0.5 else m_p * l * l * rng.uniform(1.0, 2.0),

@@ -183,7 +183,7 @@ def set_agreement(runs: Sequence[Run], tolerance: float = SET_TOLERANCE) -> dict
 
 
 def interval_problems(document: dict) -> list[str]:
-    """Intervals outside their parameter's physical range (MODEL.md's table: eta in
+    """Intervals outside their parameter's physical range (the parameter table: eta in
     (0, 1], frictions and masses >= 0), or not containing their own value."""
     known = parameter_table()
     problems = []

@@ -3,16 +3,16 @@
 Why this file exists
 --------------------
 The C FMUs and the co-simulation master are judged against it. It is therefore written
-from the physics spec (``MODEL.md``) alone, in plain Python, with a different numerical
-strategy from a fixed-step FMU: a variable-step Runge-Kutta integrator
+from the physics spec (``docs/user-guide/model.md``) alone, in plain Python, with a
+different numerical strategy from a fixed-step FMU: a variable-step Runge-Kutta integrator
 (``scipy.integrate.solve_ivp``, DOP853 at rtol 1e-10) that is *stopped at every mode
 change* (a located event) and restarted with the new modes.  Between events the right
 hand side is smooth, so the integrator's accuracy is its nominal one, and the event times
 are found by root finding on the dense output (to ~1e-15 s when the event function
 depends on time only, to ~rtol otherwise).
 
-The model (MODEL.md, SI units)
-------------------------------
+The paper's model (SI units)
+----------------------------
 Current loop:  dI/dt = dIdt_max * sat((I_c - I)/(T_i*dIdt_max)); measured output I + a_h*sin(...);
                the cart is driven by the ripple-free I
 Cart:          (m_c + m_p) a = F_A - F_F
@@ -112,7 +112,7 @@ __all__ = [
     "invariants",
 ]
 
-#: MODEL.md's reference rig; J_p = 0 means "a uniform rod": J = (4/3) m_p l^2.
+#: The reference rig (docs/user-guide/model.md); J_p = 0 means "a uniform rod": J = (4/3) m_p l^2.
 DEFAULTS: dict[str, float] = dict(
     # current loop
     T_i=0.3e-3, dIdt_max=2500.0, a_h=0.0, f_h=0.0, phase_h=0.0,
@@ -124,10 +124,10 @@ DEFAULTS: dict[str, float] = dict(
     # friction extras, all off (docs/user-guide/friction.md)
     v_Sc=0.0, dk_fwc=0.0, dF_Kc=0.0, F_Oc=0.0,
     w_Sp=0.0, dk_fwp=0.0, dT_Kp=0.0, T_Op=0.0, k_dp=0.0,
-    # drives beyond MODEL.md, all off (docs/user-guide/drives.md)
+    # drives beyond the paper's model, all off (docs/user-guide/drives.md)
     k_u=0.0, k_emf=0.0, tau_e=0.0, eta_back=-1.0,
 )
-#: Initial states (x0, v0 are Cart parameters, phi0, w0 Pendulum ones in MODEL.md).
+#: Initial states (x0, v0 are Cart parameters, phi0, w0 Pendulum ones in the paper's model).
 INITIAL_DEFAULTS: dict[str, float] = dict(x0=0.0, v0=0.0, phi0=math.pi, w0=0.0, I0=0.0)
 
 _COLUMNS_RIG = ["time", "I_c", "I", "x", "v", "a", "F_A", "phi", "w", "alpha", "T_A", "F_e",
@@ -227,7 +227,7 @@ class _Inputs:
 # ------------------------------------------------------------------------ parameters
 
 def rig_params(params: dict | None = None) -> dict[str, float]:
-    """MODEL.md's reference rig updated with ``params`` (unknown names are an error)."""
+    """The reference rig updated with ``params`` (unknown names are an error)."""
     p = dict(DEFAULTS)
     for k, v in (params or {}).items():
         if k not in DEFAULTS and k not in INITIAL_DEFAULTS:
@@ -625,7 +625,7 @@ def simulate_rig(params: dict | None = None, I_c=0.0, t_eval=None, initial: dict
                  *, I_c_breakpoints: Sequence[float] = (), **solver) -> pd.DataFrame:
     """Simulate current loop -> cart -> pendulum (coupled both ways when eta > 0.5).
 
-    params   MODEL.md names (T_i, dIdt_max, a_h, f_h, phase_h, k_M, k_D, eta, m_c, m_p, l,
+    params   the rig's names (T_i, dIdt_max, a_h, f_h, phase_h, k_M, k_D, eta, m_c, m_p, l,
              k_fwc, F_Kc, F_Sc, J_p, g, k_fwp, T_Kp, T_Sp); missing ones take the
              reference-rig defaults (:data:`DEFAULTS`).
     I_c      command current: a float, a :class:`Steps`, a list of (time, value) pairs

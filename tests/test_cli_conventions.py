@@ -137,8 +137,9 @@ def test_fit_all_says_which_stages_and_files_it_skipped(tmp_path):
 
 
 def test_the_virtual_rig_draws_a_truth_the_fit_does_not_start_from(tmp_path):
-    """`pendfmu rig --seed N` records a rig unlike MODEL.md's (which the fit starts from),
-    within the drawn factors, and says so in truth.json; --reference keeps MODEL.md's."""
+    """`pendfmu rig --seed N` records a rig unlike the reference rig (docs/user-guide/model.md;
+    which the fit starts from), within the drawn factors, and says so in truth.json;
+    --reference keeps the reference rig."""
     drawn, angle = draw_truth(4)
     reference = reference_truth()
     for name, value in drawn.items():

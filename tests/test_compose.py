@@ -95,7 +95,7 @@ def test_mistakes_are_named(tmp_path, capsys, arguments, message):
 
 def test_one_system_input_feeds_every_input_it_is_wired_to(tmp_path):
     """Two current loops with different time constants behind one system input: a recording's
-    column drives both, each as it does alone (the first-order lag of MODEL.md)."""
+    column drives both, each as it does alone (the paper's first-order lag)."""
     from pendfmu.simulator.model import Model
     from pendfmu.fitting.models import simulate_model
     from pendfmu.recording import Recording

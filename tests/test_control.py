@@ -100,9 +100,10 @@ def test_a_stuck_self_locking_cart_wanted_to_push_little_holds_itself_in_both_tw
 
 
 def test_table_defaults_are_the_reference_rig():
-    """The RigController's start values are MODEL.md's reference rig, as its design has them,
-    and that design's gains and swing-up law to the table's 6 digits: the FMU as built is a
-    controller of that rig (a changed design must be copied into the table)."""
+    """The RigController's start values are the reference rig (docs/user-guide/model.md), as
+    its design has them, and that design's gains and swing-up law to the table's 6 digits:
+    the FMU as built is a controller of that rig (a changed design must be copied into the
+    table)."""
     from pendfmu.components import RIG_CONTROLLER
 
     designed = fmu_parameters(design(rig_defaults()))
@@ -222,7 +223,7 @@ def test_design_reads_the_fit_and_the_sidecars(tmp_path):
     assert not the_design.axis and the_design.rig.F_Kc == 5.0 and the_design.rig.k_fwc == 20.0
     assert (the_design.T_s, the_design.I_max, the_design.x_max, the_design.compensation) == (2e-3, 4.0, 0.3, False)
     assert "encoder resolution of x: the sidecars" in notes and "encoder resolution of phi: the reference rig's encoders" in notes
-    # the sidecar's resolution is the estimator's (not MODEL.md's 9.8e-6 m)
+    # the sidecar's resolution is the estimator's (not the reference rig's 9.8e-6 m)
     values = dict(rig_defaults(), eta=0.7, F_Kc=5.0, k_fwc=20.0)
     options = dict(task="swing-up", T_s=2e-3, weights=Weights(x=0.1), compensation=False, I_max=4.0, x_max=0.3)
     assert design(values, Options(dx=2e-5, **options)).L == the_design.L
@@ -266,7 +267,7 @@ def verified(seed: int, task: str, duration: float, folder) -> dict:
 @pytest.fixture(scope="module")
 def bootstrapped(tmp_path_factory):
     """`pendfmu fit all` with 8 bootstrap replicates on a short current and cart recording
-    of a rig away from MODEL.md's (the pendulum left out: its refits take seconds each)."""
+    of a rig away from the reference rig (the pendulum left out: its refits take seconds each)."""
     import json
 
     from pendfmu.cli import main
@@ -324,6 +325,10 @@ def test_control_verifies_the_design_on_every_replicate(bootstrapped, tmp_path, 
     report = (out / "report.md").read_text()
     assert "## Verification in closed loop" in report and "worst of 8 replicates" in report
     assert (out / "verification.png").stat().st_size > 10_000
+    # the weights it was designed with, to design with again (a tuning's are what --tune chose)
+    assert json.loads((out / "design.json").read_text())["weights"] == {"x": 0.02, "phi": 0.01, "v": 0.5, "w": 1.0,
+                                                                        "a": 1.0}
+    assert "LQR weights: x=0.02 phi=0.01 v=0.5 w=1 a=1" in report
 
 
 def test_the_replicates_rigs_reach_the_runs(bootstrapped, tmp_path):
@@ -403,8 +408,14 @@ ISSUE = {"capture": 12.0, "phi_steps": 1.0, "x": 0.010, "I_c": 1.0, "x_peak": 0.
 
 
 @pytest.mark.acceptance
-@pytest.mark.parametrize("seed", [1, 0], ids=["self-locking", "back-drivable"])
+@pytest.mark.parametrize("seed", [1, 0, 3], ids=["self-locking", "back-drivable", "self-locking-hunting"])
 def test_the_exported_controller_meets_the_issues_criteria_on_a_fitted_rig(seed, tmp_path):
+    """The issue's done-when on drawn rigs, as a user gets there: `pendfmu rig`, `pendfmu fit
+    all`, `pendfmu control --tune` (the weights tuned until its own verification over the
+    fit's replicates meets the requirements), then the exported FMU around the independent
+    reference simulator of the true rig for 20 s, from 0.1 rad and from hanging. Rig 3's
+    cart, with the default weights, slipped to and fro after the swing-up's catch at 1.08 A
+    RMS (6 of its 24 replicates missed too); tuned (x 0.02 -> 0.04 m) it meets at 0.94 A."""
     from control_loop import close_loop, verdict
     from reference_rig import DEFAULTS
 
@@ -416,7 +427,7 @@ def test_the_exported_controller_meets_the_issues_criteria_on_a_fitted_rig(seed,
     assert main(["rig", "--seed", str(seed), "--out", str(tmp_path / "rec")]) == 0
     assert main(["fit", "all", str(tmp_path / "rec"), "--out", str(tmp_path / "fit.json")]) == 0
     assert main(["control", str(tmp_path / "fit.json"), "--out", str(tmp_path / "ctl"), "--task", "swing-up",
-                 "--no-verify"]) == 0
+                 "--tune"]) == 0
     failures = {}
     for start in (0.1, math.pi):
         with FMULaw({}, fmu=tmp_path / "ctl" / "RigController.fmu") as law:
@@ -468,7 +479,7 @@ def test_a_runner_keeps_its_worker_processes_and_gives_what_one_process_gives(tm
 def test_the_verification_reads_the_encoders_the_design_was_made_for(tmp_path):
     """A rig whose sidecars give a 4096-count pendulum encoder and a 20 um cart encoder: the
     runs round the controller's inputs to those steps and count phi in them (verification once
-    assumed MODEL.md's 1024 counts whatever the recordings said)."""
+    assumed the paper's 1024 counts whatever the recordings said)."""
     from pendfmu.control.report import write_loop_ssp
     from pendfmu.control.verify import plan
 

@@ -1,4 +1,4 @@
-"""CurrentLoop: slope-limited lag (MODEL.md). A step of I_c from 0 to 2 A with the
+"""CurrentLoop: slope-limited lag (docs/user-guide/model.md). A step of I_c from 0 to 2 A with the
 reference T_i = 0.3 ms and dIdt_max = 2500 A/s: the error 2 A exceeds the band
 T_i*dIdt_max = 0.75 A, so the current ramps at 2500 A/s until I = 1.25 A at t1 = 0.5 ms,
 then follows I = 2 - 0.75 exp(-(t - t1)/T_i)."""

@@ -1,6 +1,6 @@
-"""Drives beyond MODEL.md (docs/user-guide/drives.md): a command input u with gain k_u, the back-EMF
-k_emf of a voltage-driven motor, an electrical lag tau_e of the command path, and the screw's
-back-drive efficiency eta_back apart from eta. All off by default.
+"""Drives beyond the paper's model (docs/user-guide/drives.md): a command input u with gain
+k_u, the back-EMF k_emf of a voltage-driven motor, an electrical lag tau_e of the command
+path, and the screw's back-drive efficiency eta_back apart from eta. All off by default.
 
     F_u = k_M k_D I + F_cmd,  F_cmd = k_u u - k_emf v            (tau_e = 0)
                               tau_e dF_e/dt = k_u u - k_emf v - F_e,  F_cmd = F_e   (tau_e > 0)
@@ -240,8 +240,8 @@ def pendulum_push(A: float) -> float:
 
 
 @pytest.mark.parametrize("eta, eta_back, A", [
-    (0.4, -1.0, 0.0),                   # MODEL.md: self-locking
-    (0.7, -1.0, (2 * 0.7 - 1) / 0.7),   # MODEL.md: back-drivable, A(eta)
+    (0.4, -1.0, 0.0),                   # the paper's: self-locking
+    (0.7, -1.0, (2 * 0.7 - 1) / 0.7),   # the paper's: back-drivable, A(eta)
     (0.7, 0.0, 0.0),                    # never back-driven: eta is only the drive's efficiency
     (0.4, 0.3, 0.3),                    # back-drivable with its own efficiency below 0.5
 ])
@@ -275,7 +275,7 @@ def test_the_rig_with_eta_back_matches_the_reference(eta, eta_back):
     A > 0) against the reference rig with the same eta_back, within test_friction_extras' rig
     bounds (2e-5 m, 1e-3 rad; measured 7.1e-6 m and 1.0e-4 rad self-locking at 0.7, 4.5e-6 m
     and 1.2e-5 rad back-drivable at 0.4, the co-simulation's coupling error as there); and
-    the two differ from MODEL.md's switch at the same eta."""
+    the two differ from the paper's switch at the same eta."""
     from pendfmu.fmubuild.compiler import FMUS_DIR
     from pendfmu.simulator.master import ExternalInput, Master
     from pendfmu.ssp import rig_system

@@ -182,8 +182,9 @@ def test_instantiate_free_cycles_leave_memory_flat(cart):
 
 def test_outputs_computed_when_read_after_a_step():
     """After a step only the states are copied to their variables; the other outputs are
-    computed when first read. They must equal the pendulum's equation (MODEL.md) at the new
-    state, and whether or not they are read must not change the trajectory by a bit."""
+    computed when first read. They must equal the pendulum's equation
+    (docs/user-guide/model.md) at the new state, and whether or not they are read must not
+    change the trajectory by a bit."""
     m, l, g, k, T_K = 0.2, 0.3, 9.81, 1e-3, 2e-3
     J = 4.0 / 3.0 * m * l * l
     steps = [(0.2e-3, {"a": 0.5 * math.sin(3e-3 * n)}) for n in range(3000)]

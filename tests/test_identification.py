@@ -34,10 +34,11 @@ def rig(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def all_stages(rig, tmp_path_factory):
-    """`pendfmu fit all`, from MODEL.md's reference values (the defaults) as the start. The
-    intervals from the Jacobian: what is asserted here is the estimates, the sets and the
-    prediction; the bootstrap's own intervals are the walkthrough's (test_docs_runs), the
-    bootstrap tests' and the coverage benchmark's, and it tripled this fixture's time."""
+    """`pendfmu fit all`, from the reference rig's values (docs/user-guide/model.md, the
+    defaults) as the start. The intervals from the Jacobian: what is asserted here is the
+    estimates, the sets and the prediction; the bootstrap's own intervals are the
+    walkthrough's (test_docs_runs), the bootstrap tests' and the coverage benchmark's, and it
+    tripled this fixture's time."""
     out = tmp_path_factory.mktemp("fit") / "fitted.json"
     assert main(["fit", "all", str(rig), "--out", str(out), "--seed", "3", "--uncertainty", "jacobian"]) == 0
     return json.loads(out.read_text())

@@ -5,8 +5,9 @@ included; the value must then be the one initialization and the run compute with
 
 Each component is run through fmpy (an independent driver) in both FMI versions and both
 interfaces, with one input's start value changed, and compared with what the model's
-equations (MODEL.md) give for that constant input. Then the FMU state: a state saved in the
-instantiated phase carries the input, and restored bytes hold only what a setter accepts.
+equations (docs/user-guide/model.md) give for that constant input. Then the FMU state: a
+state saved in the instantiated phase carries the input, and restored bytes hold only what a
+setter accepts.
 """
 
 from __future__ import annotations

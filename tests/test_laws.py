@@ -184,7 +184,7 @@ def test_the_ladder_adds_one_term_per_rung():
 
 
 def test_a_chosen_subset_keeps_the_model_laws_below_it():
-    """MODEL.md's three include the ones below them; an extra adds only its own term."""
+    """The paper's three include the ones below them; an extra adds only its own term."""
     chosen = ladder(PENDULUM, ["stiction", "offset", "drag"])
     assert [law_parameters(PENDULUM, chosen, k) for k in range(3)] == [
         ("k_fwp", "T_Kp", "T_Sp"), ("k_fwp", "T_Kp", "T_Sp", "T_Op"), ("k_fwp", "T_Kp", "T_Sp", "T_Op", "k_dp")]

@@ -171,7 +171,7 @@ def test_the_random_rigs_stick_break_away_and_reverse_with_both_joints(random_sw
 @pytest.mark.acceptance
 def test_the_loop_costs_no_more_than_plain_iteration_did(random_sweep):
     """Evaluations of the coupled step per communication step, over the sweep: plain
-    fixed-point iteration took 2.9 on MODEL.md's rig (eta 0.7, 3 s); measured here 1.9."""
+    fixed-point iteration took 2.9 on the reference rig (eta 0.7, 3 s); measured here 1.9."""
     assert np.mean([r["iterations"] for r in random_sweep]) <= 2.5
 
 

@@ -55,7 +55,7 @@ def test_coulomb_decay_loses_a_fixed_amplitude_per_half_swing():
     amplitudes = np.abs(turning_points(result))
     assert len(amplitudes) >= 6
     loss = -np.diff(amplitudes)
-    # Linearized: 2 T_K / (m g l) per half swing (MODEL.md), within 1 %.
+    # Linearized: 2 T_K / (m g l) per half swing (Coulomb friction T_K), within 1 %.
     np.testing.assert_allclose(loss, 2 * T_K / (M * G * L), rtol=0.01)
     # Exact energy balance between turning points: m g l (cos a2 - cos a1) = T_K (a1 + a2).
     a1, a2 = amplitudes[:-1], amplitudes[1:]

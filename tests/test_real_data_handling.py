@@ -2,9 +2,10 @@
 point, and the release angle's box and what its edge means.
 
 The recordings come from the independent reference simulator (tests/reference_rig.py, an
-event-driven scipy integration of MODEL.md), read through sensors made here by hand; the
-truths are what the fits must find, inside their intervals. Where a real recording is at
-hand (../shared/realdata, or PENDFMU_REALDATA) the same handling runs on it too.
+event-driven scipy integration of the paper's model, docs/user-guide/model.md), read through
+sensors made here by hand; the truths are what the fits must find, inside their intervals.
+Where a real recording is at hand (../shared/realdata, or PENDFMU_REALDATA) the same
+handling runs on it too.
 """
 
 from __future__ import annotations

@@ -66,7 +66,8 @@ def _fig3_slide(t, t0, v0, direction):
 
 
 def test_fig3_breakaway_time():
-    """The mass is stuck until sin(2 pi t/0.63) exceeds F_S = 0.8 N (MODEL.md Fig. 3)."""
+    """The mass is stuck until sin(2 pi t/0.63) exceeds F_S = 0.8 N (the paper's Fig. 3, in
+    docs/user-guide/model.md)."""
     df = _fig3()
     ev = df.attrs["events"]
     assert ev[0].joint == "cart" and (ev[0].old, ev[0].new) == (0, 1)

@@ -57,7 +57,7 @@ def reference_rig(tmp_path_factory):
 
 def test_the_reference_rigs_truths_lie_well_inside_the_derived_boxes(reference_rig):
     """Nothing given: every friction parameter's box from the rig's sizes and the runs holds
-    MODEL.md's value at least a factor 3 from either end (measured: F_Kc 0.07 and k_fwc
+    the reference rig's value at least a factor 3 from either end (measured: F_Kc 0.07 and k_fwc
     0.32 of the cart's scales, T_Kp 3.4e-3 and k_fwp 8.4e-3 of the pendulum's)."""
     from pendfmu.recording import read_recording
 

@@ -55,14 +55,14 @@ equation
   mode = friction.mode;
   stuck = friction.stuck;
   annotation (Documentation(info = "<html>
-<p>The cart on the lead screw (paper Eq. 2-5, MODEL.md):</p>
+<p>The cart on the lead screw (paper Eq. 2-5; pendfmu's docs/user-guide/model.md):</p>
 <pre>
   (m_c + m_p) a = F_A - F_F,     dx/dt = v,  dv/dt = a
   F_A = eta F_u + A m_p l (w^2 sin(phi) - alpha cos(phi))
   F_u = k_M k_D I + F_cmd
   F_cmd = k_u u - k_emf v                                  (tau_e = 0)
   tau_e dF_e/dt = k_u u - k_emf v - F_e,  F_cmd = F_e       (tau_e &gt; 0)
-  A = A(eta) = max(0, (2 eta - 1)/eta)                      (eta_back = -1, MODEL.md)
+  A = A(eta) = max(0, (2 eta - 1)/eta)                      (eta_back = -1, the paper's)
   A = eta_back                                              (0 &le; eta_back &le; 1)
 </pre>
 <p>The drive extras (README, Drives) are off by default (k_u = k_emf = tau_e = 0,

@@ -22,7 +22,7 @@ equation
   I = I_mean + a_h*sin(2*pi*f_h*time + phase_h);
   annotation (Documentation(info = "<html>
 <p>The converter's current control loop as a first-order lag whose slope is limited
-(paper Eq. 1, MODEL.md):</p>
+(paper Eq. 1; pendfmu's docs/user-guide/model.md):</p>
 <pre>
   dI_mean/dt = dIdt_max sat((I_c - I_mean) / (T_i dIdt_max)),   sat(z) = max(-1, min(1, z))
   I = I_mean + a_h sin(2 pi f_h time + phase_h)

@@ -42,8 +42,8 @@ equation
   mode = friction.mode;
   stuck = friction.stuck;
   annotation (Documentation(info = "<html>
-<p>The pendulum on the cart's pivot (paper Eq. 6-8, MODEL.md), phi measured from the
-upward vertical (hanging at rest: phi = pi):</p>
+<p>The pendulum on the cart's pivot (paper Eq. 6-8; pendfmu's docs/user-guide/model.md), phi
+measured from the upward vertical (hanging at rest: phi = pi):</p>
 <pre>
   J alpha = T_A - T_F,     dphi/dt = w,  dw/dt = alpha
   T_A = m_p l (g sin(phi) - a cos(phi))

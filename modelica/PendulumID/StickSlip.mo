@@ -41,8 +41,8 @@ equation
     reinit(v, 0);
   end when;
   annotation (Documentation(info = "<html>
-<p>The friction law of MODEL.md (and of pendfmu's <code>friction.h</code>), with speed
-<i>v</i>, active force <i>F_A</i> and inertia <i>m</i>:</p>
+<p>The friction law of the paper's model (pendfmu's <code>docs/user-guide/model.md</code>, and
+its <code>friction.h</code>), with speed <i>v</i>, active force <i>F_A</i> and inertia <i>m</i>:</p>
 <pre>
   m dv/dt = F_A - F_F
   sliding (mode = +1 or -1):  F_F = k_fw v + F_K mode

@@ -6,9 +6,10 @@ package PendulumID "Inverted-pendulum rig: current loop, cart and pendulum with 
     version = "0.1.0",
     Documentation(info = "<html>
 <p>The Modelica twin of pendfmu's component FMUs <code>CurrentLoop</code>, <code>Cart</code>
-and <code>Pendulum</code> (paper Eq. 1-8, specified in <code>MODEL.md</code>). Every
-parameter, input and output has the name, unit, default and description of the FMU
-variable tables in <code>pendfmu/components.py</code>; a test in pendfmu compares the two.</p>
+and <code>Pendulum</code> (paper Eq. 1-8, specified in pendfmu's
+<code>docs/user-guide/model.md</code>). Every parameter, input and output has the name, unit,
+default and description of the FMU variable tables in <code>pendfmu/components.py</code>; a
+test in pendfmu compares the two.</p>
 <ul>
 <li><a href=\"modelica://PendulumID.StickSlip\">StickSlip</a>: the three-mode stick-slip
 friction (viscous, Coulomb, stiction) of one joint, shared by the cart and the pendulum.</li>

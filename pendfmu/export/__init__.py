@@ -91,8 +91,8 @@ def export_all(parameters: Mapping[str, object], out_dir: str | Path, *, compone
     Parameters
     ----------
     parameters : mapping of str to float
-        Rig parameter values by name, in SI units as MODEL.md names them (``m_p`` [kg],
-        ``l`` [m], ``k_fwc`` [N·s/m], ``F_Kc`` [N], ...).
+        Rig parameter values by name, in SI units, named as in docs/user-guide/model.md
+        (``m_p`` [kg], ``l`` [m], ``k_fwc`` [N·s/m], ``F_Kc`` [N], ...).
     out_dir : str or Path
         The folder, created if needed.
     components : iterable of str, optional

@@ -107,7 +107,7 @@ def plan_export(parameters: Mapping[str, object], components: Iterable[str] | No
     Parameters
     ----------
     parameters : mapping of str to float
-        Rig parameter values by name (SI units, as MODEL.md names them).
+        Rig parameter values by name (SI units, named as in docs/user-guide/model.md).
     components : iterable of str, optional
         The components to export; by default every component that has one of the given
         parameters (all three if none is given).

@@ -6,7 +6,7 @@ The terms are friction.h's (pendfmu/friction.py names each joint's parameters):
     + Coulomb              F_K; stiction 0: the breakaway threshold is max(F_S, F_K) = F_K
                            (docs/user-guide/friction.md), so a stiction below the Coulomb
                            friction is no stiction
-    + stiction             F_S: MODEL.md's law, the stage's own
+    + stiction             F_S: the paper's law (docs/user-guide/model.md), the stage's own
     + Stribeck             v_S
     + direction asymmetry  dk_fw and dF_K
     + offset               F_O
@@ -14,7 +14,7 @@ The terms are friction.h's (pendfmu/friction.py names each joint's parameters):
 
 A law is a fit of the stage as `pendfmu fit` makes it: the same FitSpec with the law's
 terms free and the others fixed at 0 (law_spec). A chosen subset of the rungs adds each
-rung's terms to the one before it among them; MODEL.md's three include the ones below them,
+rung's terms to the one before it among them; the paper's three include the ones below them,
 named or not (law_terms).
 """
 
@@ -50,7 +50,7 @@ LADDER = (Rung("viscous", "viscous only", ("k_fw",)), Rung("coulomb", "+ Coulomb
 stiction law only in the limit v_S -> 0, where the FMU's step shrinks with the Stribeck
 slope and the refinement crawled (4000 simulations, still 2.4 times the stiction law's
 RMS at v_S = 1e-4 m/s): neither is refitted from the law below (nested)."""
-BASE_LAWS = ("viscous", "coulomb", "stiction")  # MODEL.md's: each includes the ones below it
+BASE_LAWS = ("viscous", "coulomb", "stiction")  # the paper's: each includes the ones below it
 FIRST_ROUND = (*BASE_LAWS, "stribeck")  # the laws whose terms have boxes of their own
 
 
@@ -75,7 +75,7 @@ def ladder(joint: Joint, names: Sequence[str] | None = None) -> list[Rung]:
 
 def law_terms(rungs: Sequence[Rung], k: int) -> list[str]:
     """The terms (friction.Law's fields) of rung k's law among the rungs compared: the
-    viscous term, MODEL.md's terms up to the highest of its laws among rungs[:k + 1] (each
+    viscous term, the paper's terms up to the highest of its laws among rungs[:k + 1] (each
     includes the ones below it), and the terms of each extra rung among them."""
     chosen = rungs[:k + 1]
     highest = max((BASE_LAWS.index(rung.name) for rung in chosen if rung.name in BASE_LAWS), default=0)

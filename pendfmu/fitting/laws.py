@@ -4,9 +4,9 @@
     print(comparison.table())
     comparison.recommended, comparison.reason
 
-The candidates are the ladder of ladder.py: viscous only, + Coulomb, + stiction (MODEL.md's
-law), + Stribeck, + direction asymmetry, + offset, + air drag (the pendulum), each the one
-below plus a term of friction.h's law.
+The candidates are the ladder of ladder.py: viscous only, + Coulomb, + stiction (the paper's
+law, docs/user-guide/model.md), + Stribeck, + direction asymmetry, + offset, + air drag (the
+pendulum), each the one below plus a term of friction.h's law.
 
 Each law is a fit of the stage as `pendfmu fit` makes it (the same FitSpec, with the law's
 terms free and the others fixed at 0), made twice: to the whole recordings (for its BIC) and
@@ -328,7 +328,7 @@ def compare_laws(stage: str, recordings, params=None, *, laws: Sequence[str] | N
     laws : sequence of str, optional
         The rungs to compare (default: all the joint has): viscous, coulomb, stiction,
         stribeck, asymmetry, offset, drag. Each adds its terms to the one before it among
-        them; MODEL.md's three include the ones below them whether named or not.
+        them; the paper's three include the ones below them whether named or not.
     say : callable, optional
         Called with a line on each round of fits (progress).
     warn : callable, optional

@@ -92,9 +92,10 @@ def without_aliases(model: Model, values: Mapping[str, float], names: Sequence[s
 
 def initial_map(model: Model, given: Mapping[str, str] | None) -> dict[str, str]:
     """Signal -> the parameter of its initial value: `given`, else by the convention of
-    MODEL.md and most exported models, an output `x` whose initial value is parameter `x0`.
-    A signal written with a prime (x') stands for its rate: "x'" -> "v0" lets a window or
-    segment estimate its initial speed from the slope of its first readings of x."""
+    the paper's model (docs/user-guide/model.md) and most exported models, an output `x`
+    whose initial value is parameter `x0`. A signal written with a prime (x') stands for its
+    rate: "x'" -> "v0" lets a window or segment estimate its initial speed from the slope of
+    its first readings of x."""
     parameters = set(model.names("parameter"))
     found = {name: f"{name}0" for name in model.names("output") if f"{name}0" in parameters}
     for signal, parameter in (given or {}).items():

@@ -52,7 +52,7 @@ class SuspiciousData(Suspicious):
 
 def self_locking_switch(free: Sequence[FreeParameter], experiments: Sequence[Experiment]) -> list[str]:
     """A warning when a fit frees eta over a box that straddles the self-locking limit (0.5)
-    while MODEL.md's switch is on (eta_back = -1) and a recording has a pendulum on the cart:
+    while the paper's switch is on (eta_back = -1) and a recording has a pendulum on the cart:
     inside the box the screw turns from self-locking to back-drivable, so the model the fit
     explores changes its kind, not only its efficiency (docs/user-guide/drives.md)."""
     box = next((p for p in free if p.name == "eta" and p.experiment is None), None)
@@ -189,7 +189,7 @@ def _missing_sidecar(experiment: Experiment) -> list[str]:
     assumed = [f"{name} = {experiment.fixed[name]:g}" for name in RUN_VALUES.get(experiment.setup.name, ())
                if name in experiment.fixed and name not in experiment.estimated]  # estimated: read off the data
     text = (f"{_where(experiment)}: no sidecar ({sidecar}): the run is assumed to have "
-            f"{', '.join(assumed) or 'the default values'} (the given params, or MODEL.md's reference rig), and the "
+            f"{', '.join(assumed) or 'the default values'} (the given params, or the reference rig), and the "
             f"sensor's error scale is estimated from the data")
     if experiment.setup.name == "cart" and experiment.fixed.get("m_p", 0.0) > 0:
         text += "; if the pendulum was removed for this run, state \"parameters\": {\"m_p\": 0} in the sidecar"

@@ -136,7 +136,8 @@ def user_model(target: str | Path | Model) -> Model:
 
 
 def given_values(spec: FitSpec) -> dict[str, float]:
-    """The values a stage's spec gives, checked against MODEL.md's table."""
+    """The values a stage's spec gives, checked against the rig's parameter table
+    (docs/reference/variables.md)."""
     return _known(spec.params, check_parameters)
 
 

@@ -59,7 +59,7 @@ class Estimate:
         The quantity's name: a parameter (``k_fwc``), or a per-recording estimate with
         its recording (``phi0[run1]``).
     value : float
-        The estimate, in the parameter's SI unit (MODEL.md).
+        The estimate, in the parameter's SI unit (docs/user-guide/model.md).
     stderr : float or None
         Its standard error; None when none could be given.
     ci95 : tuple of (float, float) or None
@@ -118,7 +118,7 @@ class FitResult:
         What was fitted: "current", "cart", "pendulum", "all" (the paper's sequence), or a
         user's model's name.
     parameters : dict of str to float
-        Every value the fit ran with, fitted and known, by name (SI units, MODEL.md).
+        Every value the fit ran with, fitted and known, by name (SI units, docs/user-guide/model.md).
     estimates : dict of str to Estimate
         The fitted ones, by label (``k_fwc``; ``phi0[run1]`` for one recording's own).
     correlation : dict of str to dict of str to float

@@ -1,8 +1,8 @@
 """The current stage's PWM ripple: found in the residual's spectrum, then fitted.
 
 A sinusoid's frequency makes a cost with many local minima, so it is seeded from the
-periodogram of the lag fit's residual rather than searched (MODEL.md: the converter's
-harmonic a_h sin(2 pi f_h t + phase_h) on the measured current).
+periodogram of the lag fit's residual rather than searched (docs/user-guide/model.md: the
+converter's harmonic a_h sin(2 pi f_h t + phase_h) on the measured current).
 """
 
 from __future__ import annotations

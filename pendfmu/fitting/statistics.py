@@ -90,7 +90,8 @@ def interval(value: float, sigma: float, log_scale: bool, name: str = "", quanti
 
 
 def clip_to_range(name: str, bounds: tuple[float, float]) -> tuple[float, float]:
-    """An interval cut to the physical range of the parameter `name` (MODEL.md's table)."""
+    """An interval cut to the physical range of the parameter `name` (its row of
+    docs/reference/variables.md)."""
     from pendfmu.components import parameter_table
 
     variable = parameter_table().get(name)

@@ -3,11 +3,11 @@
 recording -> experiment -> simulator -> residuals -> optimizer -> result -> report
 
 A :class:`Recording` is one run on the rig: a time vector and the signals recorded
-against it, plus what the sidecar JSON says about them (``MODEL.md``, "Recordings on
-disk"). Everything later in the flow trusts a Recording, so every check happens here,
-once, and every failure is a :class:`RecordingError` with a one-line message that names
-the file, the column and the line (or the JSON key) -- a user with a 2 GB logger export
-must be able to find the bad cell from the message alone.
+against it, plus what the sidecar JSON says about them (the recording format,
+``pendfmu/recording/FORMAT.md``). Everything later in the flow trusts a Recording, so every
+check happens here, once, and every failure is a :class:`RecordingError` with a one-line
+message that names the file, the column and the line (or the JSON key) -- a user with a 2 GB
+logger export must be able to find the bad cell from the message alone.
 
 Files read by :func:`read_recording`
 ------------------------------------
@@ -127,8 +127,8 @@ def read_recording(path: str | os.PathLike, max_bytes: int | None = None, vocabu
         comparable to the file size, and a clear error beats swapping. Default
         :data:`MAX_BYTES`.
     vocabulary : Vocabulary, optional
-        The names it may use: MODEL.md's (:data:`RIG`, the default), or those of a user's
-        model (``Model.vocabulary()``).
+        The names it may use: the rig's (docs/user-guide/model.md; :data:`RIG`, the default),
+        or those of a user's model (``Model.vocabulary()``).
 
     Returns
     -------

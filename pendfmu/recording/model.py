@@ -1,5 +1,5 @@
 """The Recording: a time vector and signals, checked on construction; and the quantizer
-of MODEL.md's sensors."""
+of the paper's sensors (docs/user-guide/model.md)."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ class SignalInfo:
         The quantization step Δ, in the signal's unit (e.g. m for ``x``, rad for ``phi``);
         None: not stated, e.g. an unquantized or unknown sensor.
     quantizer : str
-        How a reading is quantized: ``"round"`` (MODEL.md's default) or ``"floor"``
+        How a reading is quantized: ``"round"`` (the paper's default) or ``"floor"``
         (:data:`QUANTIZERS`).
     noise : float or None
         The standard deviation of the sensor noise before quantization, in the signal's
@@ -91,7 +91,8 @@ class Recording:
     sidecar : Path or None
         The sidecar file it was read with; None without one.
     vocabulary : Vocabulary
-        The names it may use: :data:`RIG` (MODEL.md's), or a user's model's.
+        The names it may use: :data:`RIG` (the rig's, docs/user-guide/model.md), or a user's
+        model's.
     span : tuple of (float, float) or None
         The time window [s] of the file this recording was cut to by :meth:`window`;
         None for a whole file.
@@ -264,7 +265,7 @@ class Recording:
         Returns
         -------
         str
-            ``"round"`` or ``"floor"``; ``"round"`` when not stated (MODEL.md).
+            ``"round"`` or ``"floor"``; ``"round"`` when not stated (the paper's sensors).
         """
         self.signal(name)
         info = self.signal_info.get(name)
@@ -284,7 +285,8 @@ class Recording:
 
 
 def quantize(values, resolution: float | None, quantizer: str = "round") -> np.ndarray:
-    """What a sensor of step Δ reads: ``Δ·round(value/Δ)`` (MODEL.md) or ``Δ·floor(value/Δ)``.
+    """What a sensor of step Δ reads: ``Δ·round(value/Δ)`` (the paper's sensors,
+    docs/user-guide/model.md) or ``Δ·floor(value/Δ)``.
 
     ``round`` rounds halves to even (numpy's rint), which has no bias for signals that swing
     about zero.

@@ -57,8 +57,8 @@ class Vocabulary:
     """The names a recording may use: its columns, the sidecar's parameters (with a check
     of each value) and its known initial states.
 
-    MODEL.md's rig by default (:data:`RIG`); a fit of a user's model reads recordings with
-    the model's names (``Model.vocabulary``).
+    The paper's rig (docs/user-guide/model.md) by default (:data:`RIG`); a fit of a user's
+    model reads recordings with the model's names (``Model.vocabulary``).
 
     Attributes
     ----------
@@ -78,7 +78,7 @@ class Vocabulary:
 
 
 QUANTIZERS: tuple[str, ...] = ("round", "floor")
-"""How a reading is quantized: ``round`` is MODEL.md's default, ``floor`` what a
+"""How a reading is quantized: ``round`` is the paper's default, ``floor`` what a
 counter that truncates reports."""
 
 
@@ -200,4 +200,4 @@ class WithMeasurements:
 
 
 RIG = Vocabulary(SIGNAL_NAMES, _parameter_problem, _initial_problem)
-"""MODEL.md's names: the rig's signals, parameters and states."""
+"""The paper's names (docs/user-guide/model.md): the rig's signals, parameters and states."""

@@ -57,7 +57,7 @@ def write_friction_figures(result: FitResult, directory: Path) -> list[Picture]:
 
 
 def shown_terms(result: FitResult, joint: Joint) -> list[str]:
-    """The law's parameters a figure names: MODEL.md's three, and each extra that was
+    """The law's parameters a figure names: the paper's three, and each extra that was
     fitted or is on (not 0)."""
     values = fitted_values(result, joint)
     return [name for name in joint.parameters
@@ -121,7 +121,7 @@ def friction_figure(result: FitResult, joint: Joint) -> Figure:
 
 
 def _sliding_label(result: FitResult, joint: Joint) -> str:
-    """MODEL.md's law, and the extras that shape the sliding friction with their values."""
+    """The paper's law, and the extras that shape the sliding friction with their values."""
     values = fitted_values(result, joint)
     extras = [name for name in shown_terms(result, joint) if name not in (*joint.plain, joint.offset)]
     label = f"sliding: {joint.viscous}·{joint.speed} + {joint.coulomb}·sgn({joint.speed})"

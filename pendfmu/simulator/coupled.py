@@ -7,10 +7,11 @@ between evaluations. That alone converges through every stick-slip event; what i
 make right is the decision taken *at* an event inside the step.
 
 Why events inside a step need more. When the cart comes to rest at tau inside [t, t+h],
-its FMU decides there, by MODEL.md's law, whether it sticks (|F_A| <= F_S) or reverses.
-F_A contains the pendulum's reaction A m_p l (w^2 sin(phi) - alpha cos(phi)), and the
-pendulum's alpha jumps at tau too, because the cart's acceleration does: the law is an
-instantaneous problem of both joints together (the reference simulator solves it as such).
+its FMU decides there, by the paper's law (docs/user-guide/model.md), whether it sticks
+(|F_A| <= F_S) or reverses. F_A contains the pendulum's reaction A m_p l (w^2 sin(phi) -
+alpha cos(phi)), and the pendulum's alpha jumps at tau too, because the cart's acceleration
+does: the law is an instantaneous problem of both joints together (the reference simulator
+solves it as such).
 Inside a co-simulation step the cart sees alpha interpolated between the step's ends,
 which near the step's start is still the value from before the event: a cart whose
 holding force lies within that jump of the threshold takes the wrong branch (measured on a

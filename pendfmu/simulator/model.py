@@ -9,8 +9,9 @@ Names. A variable is named `Instance.variable`; it is also known by its bare nam
 that is unambiguous. Pendfmu's own rig is the exception it was built on: its components
 share physical quantities by name (m_p and l are one mass and one length for Cart and
 Pendulum), so in a model made of them (`shared=True`) a bare parameter name sets every
-component that has it, as MODEL.md specifies. In any other model a bare name that two
-components have is ambiguous, and using it is an error that lists the qualified names.
+component that has it, as in the paper's model (docs/user-guide/model.md). In any other
+model a bare name that two components have is ambiguous, and using it is an error that
+lists the qualified names.
 """
 
 from __future__ import annotations
@@ -280,7 +281,7 @@ class Model:
         -------
         Model
             The model, `shared`: a bare parameter name (m_p, l) sets every component that
-            has it, as MODEL.md specifies.
+            has it, as in the paper's model.
         """
         return cls(name, {n: Instance(n, k) for n, k in kinds.items()}, list(connections), shared=True)
 

@@ -10,7 +10,7 @@ The step is consistent where r(x) = G(x) - x = 0.
 
 Why plain fixed-point iteration (x <- G(x)) is not enough. While both joints slide, G is
 smooth with a small slope (the loop gain A m^2 l^2 cos^2(phi) / (M J), below
-m_p / (m_c + m_p) for any rod or bob, 0.027 for MODEL.md's rig at eta 0.7), and fixed-point
+m_p / (m_c + m_p) for any rod or bob, 0.027 for the reference rig at eta 0.7), and fixed-point
 iteration contracts. But a joint that sticks, breaks away or reverses near the step's end
 makes G jump: a guess on one side lets the cart reach v = 0 just before b (G = 0, stuck),
 a guess on the other just after (G = the braking deceleration). Then r changes sign

@@ -11,13 +11,13 @@ a drive FMU from another tool, is composed here:
 A component is a pendfmu component name (built on demand) or an FMU file. A parameter
 is written "Component.name", or bare: it then sets the one component that has it, or
 every one of pendfmu's components that has it (their names are physical quantities: m_p
-and l are one mass and one length for Cart and Pendulum, MODEL.md); a bare name a user's
-FMU shares with another component must be qualified. Values for what the system does not
-hold are left out and said (`warn`), so that one parameters or result file of the rig
-serves any system of its components: a parameter of one of pendfmu's components the
-system lacks (T_i in a loop of Controller and Cart), and a measurement parameter (x_offset:
-the recordings', pendfmu/recording/measurement.py). Any other name no component has is
-an error naming it. Every parameter of every component is written, as the rig does, so
+and l are one mass and one length for Cart and Pendulum, docs/user-guide/model.md); a bare
+name a user's FMU shares with another component must be qualified. Values for what the
+system does not hold are left out and said (`warn`), so that one parameters or result file
+of the rig serves any system of its components: a parameter of one of pendfmu's components
+the system lacks (T_i in a loop of Controller and Cart), and a measurement parameter
+(x_offset: the recordings', pendfmu/recording/measurement.py). Any other name no component
+has is an error naming it. Every parameter of every component is written, as the rig does, so
 the SSP states the whole system whatever FMU build it is later combined with.
 
 Every component input no connection feeds becomes an input of the system (an SSP system
@@ -103,7 +103,7 @@ def _physical(components: Mapping[str, str | Path], given: Mapping[str, Mapping[
               values: dict[str, dict[str, ParameterValue]]) -> None:
     """pendfmu's components as the rules between their parameters allow (physics.py): a
     J_cm written as J_p, values that break a rule refused before the system is written. A
-    foreign FMU's names need not mean what MODEL.md's do: it takes no J_cm, and no rule."""
+    foreign FMU's names need not mean what the rig's do: it takes no J_cm, and no rule."""
     for name, own in given.items():
         if str(components[name]) not in ALL_COMPONENTS:
             if J_CM in own:

@@ -1,4 +1,5 @@
-"""The pendulum rig (MODEL.md) as an SSP system of the CurrentLoop, Cart and Pendulum FMUs."""
+"""The pendulum rig (docs/user-guide/model.md) as an SSP system of the CurrentLoop, Cart and
+Pendulum FMUs."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ SHARED_PARAMETERS = ("m_p", "l")
 DRIVE = (("CurrentLoop.I_mean", "Cart.I"), ("Cart.a", "Pendulum.a"))
 
 # The system's own connectors: the recorded command current drives the rig, and the signals
-# `pendfmu simulate` writes (MODEL.md's measured I, x, phi and their rates) come out, so
+# `pendfmu simulate` writes (the rig's measured I, x, phi and their rates) come out, so
 # other tools drive and record the rig by these names, as pendfmu does.
 RIG_INPUTS = (("I_c", "CurrentLoop.I_c"),)
 RIG_OUTPUTS = (("I", "CurrentLoop.I"), ("x", "Cart.x"), ("v", "Cart.v"), ("a", "Cart.a"),
@@ -37,7 +38,7 @@ def rig_connections(eta: float, eta_back: float = ETA_BACK_FROM_ETA) -> list[Con
     eta : float
         The screw efficiency [-].
     eta_back : float, optional
-        The Cart's eta_back parameter: -1 for MODEL.md's A(eta) (back-drivable above
+        The Cart's eta_back parameter: -1 for the paper's A(eta) (back-drivable above
         eta = 0.5), 0 for self-locking, > 0 for back-drivable with that factor A on the
         pendulum's push (docs/user-guide/drives.md).
 

@@ -14,7 +14,7 @@ encoder resolution and quantizer, the known mass, the initial state).
 
 pendfmu reads them with the model's names (``pendfmu fit --fmu ForeignCart.fmu ...``);
 `read_recording` without the model refuses the column ``u`` and the parameter ``m``, which
-are not MODEL.md's. `read` reads them without pendfmu (pandas, json).
+are not the rig's (docs/user-guide/model.md). `read` reads them without pendfmu (pandas, json).
 
     python tests/foreign/recordings.py FMU OUT_DIR      (writes the four recordings)
 """

@@ -3,7 +3,8 @@ recording replayed open loop from the recorded controller output (``--drive I``)
 
 The benchmark's model (Simulation_EMPS.m) is ``M ddq = gtau vir - Fv dq - Fc sign(dq) - OF``;
 pendfmu's cart stage with no pendulum is ``m_c a = eta k_M k_D I - k_fwc v - F_Kc sign(v)``
-(MODEL.md; stiction F_Sc aside). :func:`benchmark` converts one into the other.
+(the paper's model, docs/user-guide/model.md; stiction F_Sc aside). :func:`benchmark` converts
+one into the other.
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ from _common import REALDATA, angular_rate, turning_points
 
 MULTIARM_MAT = REALDATA / "MultiArm-Pendulum" / "SinglePendulumDataForParameterEstimation.mat"
 ENCODER_RESOLUTION = 2 * math.pi / 40000  # the rig's high-resolution encoder
-TEN_BIT = 2 * math.pi / 1024  # the paper's pendulum encoder (MODEL.md)
+TEN_BIT = 2 * math.pi / 1024  # the paper's pendulum encoder (docs/user-guide/model.md)
 # The authors' fit (EstimatedParameters_SinglePendulum.mat): viscous friction only.
 A1, M1, I1, G, K1 = 0.147755, 0.147585, 1.09119e-4, 9.81001, 2.23940e-4
 PUBLISHED_PENDULUM = {"l": A1, "m_p": M1, "J_p": I1 + M1 * A1**2, "g": G}  # J_p about the pivot

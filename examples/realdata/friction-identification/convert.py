@@ -117,9 +117,9 @@ def momentum_balance_scale(scope: ServoScope) -> float:
 def carriage_parameters(scope: ServoScope | None = None, start: dict[str, float] | None = None
                         ) -> dict[str, float]:
     """The cart's known values: the published reduced mass (motor inertia included, as
-    m_c is in MODEL.md), k_D from 20 mm per revolution, no pendulum, and k_M such that
-    k_M k_D I is the load cell's force for the torque reading I (fraction of rated
-    torque): k_M is then the rated torque in N m (2.2 N m; SOURCE.txt names no motor).
+    m_c is in docs/user-guide/model.md), k_D from 20 mm per revolution, no pendulum, and
+    k_M such that k_M k_D I is the load cell's force for the torque reading I (fraction of
+    rated torque): k_M is then the rated torque in N m (2.2 N m; SOURCE.txt names no motor).
     The efficiency eta stays free; with the drive scaled by the load cell it should come
     out near 1, its physical limit. The friction's start: `start`, by default
     :func:`implied_start`."""

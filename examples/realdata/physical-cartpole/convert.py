@@ -19,12 +19,13 @@ irregularly. Every decision about the raw data is made here, from the log's own 
   so that compensation shows in the fit as a smaller Coulomb friction.
 * **x**: ``position`` [m] = -9.51e-5 m x ``position_raw`` (checked: the conversion refuses a
   log where it is not), one encoder count as the resolution. Q > 0 moves the cart to +x.
-* **phi**: MODEL.md measures phi from the upward vertical with T_A = m l (g sin phi - a cos
-  phi), i.e. phi > 0 leans toward +x. The log's ``angle`` is 0 upright and +-pi hanging, and
-  its swing obeys angleDD = +(g sin(angle) + a cos(angle))/(2L/3) (the driver's own model, and
-  measured: :func:`angle_sign`), so **phi = -angle**, unwrapped (the swing-up crosses the
-  hanging position's +-pi). Rows the firmware flags ``frozen`` (the potentiometer's dead
-  zone: the ADC reads 0 or 4095, the angle is a stale value) are missing samples of phi.
+* **phi**: the paper's model (docs/user-guide/model.md) measures phi from the upward vertical
+  with T_A = m l (g sin phi - a cos phi), i.e. phi > 0 leans toward +x. The log's ``angle``
+  is 0 upright and +-pi hanging, and its swing obeys angleDD = +(g sin(angle) + a
+  cos(angle))/(2L/3) (the driver's own model, and measured: :func:`angle_sign`), so
+  **phi = -angle**, unwrapped (the swing-up crosses the hanging position's +-pi). Rows the
+  firmware flags ``frozen`` (the potentiometer's dead zone: the ADC reads 0 or 4095, the
+  angle is a stale value) are missing samples of phi.
   ``invalid_steps`` > 0 without ``frozen`` is the firmware averaging fewer valid readings:
   those angles are kept (they lie on the smooth swing like the others: :func:`angle_outliers`).
 * **w, alpha, a**: derivatives of smoothing splines (scipy ``make_smoothing_spline``, the
@@ -64,7 +65,7 @@ PUBLISHED = {"m_cart_eff": 2.82, "u_max": 21.7, "M_fric": 36.8, "J_fric": 5e-5, 
 POLE_LENGTH = 0.395  # m, full length (L in the driver's parameters)
 POLE_MASS = 0.087  # kg
 # The pendulum as pendfmu's rod: the centre of mass at half the length, J_p = (4/3) m_p l^2
-# (MODEL.md's default): the driver's own model (angleDD = (g sa + a ca)/((1 + 1/3) L/2)).
+# (the paper's default): the driver's own model (angleDD = (g sa + a ca)/((1 + 1/3) L/2)).
 POLE = {"m_p": POLE_MASS, "l": POLE_LENGTH / 2}
 
 
@@ -134,7 +135,7 @@ def valid_angle(log: CartpoleLog) -> np.ndarray:
 
 
 def pole_angle(log: CartpoleLog) -> np.ndarray:
-    """phi (MODEL.md) = -angle, unwrapped over the valid rows; NaN where frozen."""
+    """The paper's phi = -angle, unwrapped over the valid rows; NaN where frozen."""
     ok = valid_angle(log)
     phi = np.full(len(ok), np.nan)
     phi[ok] = -np.unwrap(log.columns["angle"][ok])

@@ -1,4 +1,4 @@
-/* Cart: the cart on the lead screw, driven by the motor (paper Eq. 2-5, MODEL.md):
+/* Cart: the cart on the lead screw, driven by the motor (paper Eq. 2-5, docs/user-guide/model.md):
  *
  *     (m_c + m_p) a = F_A - F_F
  *     F_A = eta k_M k_D I + A(eta) m_p l (w^2 sin(phi) - alpha cos(phi))
@@ -9,11 +9,11 @@
  * F_F is the three-mode stick-slip friction of friction.h, with its optional extras
  * (Stribeck speed v_Sc, asymmetries dk_fwc and dF_Kc, offset force F_Oc; all 0 by default).
  *
- * Drives beyond MODEL.md (docs/user-guide/drives.md; all off by default): a command u beside the
- * current, so that the motor force is
+ * Drives beyond the paper's model (docs/user-guide/drives.md; all off by default): a command u
+ * beside the current, so that the motor force is
  *     F_u = k_M k_D I + F_cmd,   F_cmd = k_u u - k_emf v            (tau_e = 0)
  *                                tau_e dF_e/dt = k_u u - k_emf v - F_e,  F_cmd = F_e  (tau_e > 0)
- * and F_A = eta F_u + A m_p l (...) as MODEL.md (eta multiplies the whole motor force).
+ * and F_A = eta F_u + A m_p l (...) as in the paper's model (eta multiplies the whole motor force).
  * A is A(eta) unless eta_back >= 0 sets it: 0 self-locking whatever eta, else eta_back.
  */
 #include <math.h>
@@ -31,7 +31,7 @@ static Friction friction(const Instance *inst) {
     return f;
 }
 
-/* The back-drive efficiency A: MODEL.md's A(eta) while eta_back < 0, else eta_back itself
+/* The back-drive efficiency A: the paper's A(eta) while eta_back < 0, else eta_back itself
  * (0: self-locking whatever eta). */
 static double back_drive(const Instance *inst) {
     const double eta = R(eta);
@@ -61,8 +61,8 @@ static double active_force(const Instance *inst, const double *x) {
 
 bool model_check_parameters(const Instance *inst, char *why, size_t size) {
     if (R(eta_back) < 0.0 && R(eta_back) != -1.0) {
-        snprintf(why, size, "eta_back = %g is neither -1 (A(eta) as MODEL.md) nor a back-drive efficiency in "
-                 "[0, 1] (0: self-locking whatever eta)", R(eta_back));
+        snprintf(why, size, "eta_back = %g is neither -1 (the paper's A(eta)) nor a back-drive "
+                 "efficiency in [0, 1] (0: self-locking whatever eta)", R(eta_back));
         return false;
     }
     return friction_asymmetry_ok(R(k_fwc), R(dk_fwc), "k_fwc", "dk_fwc", "N.s/m", why, size) &&

@@ -1,5 +1,5 @@
 /* CurrentLoop: the motor's current control loop as a slope-limited first-order lag
- * (paper Eq. 1, MODEL.md):
+ * (paper Eq. 1, docs/user-guide/model.md):
  *
  *     dI/dt = dIdt_max * sat((I_c - I) / (T_i * dIdt_max))
  *

@@ -1,5 +1,5 @@
-/* Pendulum: the pendulum on the cart's pivot (paper Eq. 6-8, MODEL.md), phi from the
- * upward vertical:
+/* Pendulum: the pendulum on the cart's pivot (paper Eq. 6-8, docs/user-guide/model.md),
+ * phi from the upward vertical:
  *
  *     J_p alpha = T_A - T_F,    T_A = m_p l (g sin(phi) - a cos(phi))
  *

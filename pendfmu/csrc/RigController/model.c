@@ -14,8 +14,8 @@
  *      cart, the breakaway force, ramped in over F_ramp, for a stuck one) and limit the
  *      current to +-I_max: that is I_c, held until the next sample; balancing on a
  *      self-locking screw, a stuck cart wanted to push less than F_ramp gets none (holds);
- *   4. predict the next sample's state under I_c (RK2, SUBSTEPS steps of MODEL.md's current
- *      loop, cart and pendulum, the compensated friction left out).
+ *   4. predict the next sample's state under I_c (RK2, SUBSTEPS steps of the paper's current
+ *      loop, cart and pendulum (docs/user-guide/model.md), the compensated friction left out).
  *
  * Co-Simulation and Model Exchange take the samples as the Controller component does (its
  * model.c): a sample at a communication point reads the inputs set there; without commit the

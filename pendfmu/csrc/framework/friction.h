@@ -1,5 +1,5 @@
-/* The friction law of MODEL.md, shared by the cart and the pendulum joint: viscous,
- * Coulomb and stiction friction as a hybrid model with three modes,
+/* The friction law of the paper's model (docs/user-guide/model.md), shared by the cart and the
+ * pendulum joint: viscous, Coulomb and stiction friction as a hybrid model with three modes,
  *   +1 sliding forward, 0 stuck, -1 sliding backward,
  * with optional extras (docs/user-guide/friction.md, "Friction law extras"; the Python twin of this law and each
  * joint's parameter names: pendfmu/friction.py), all off at their default 0:
@@ -14,7 +14,7 @@
  *                 joint is allowed to stay stuck (|F_N| <= threshold).
  *
  * Breakaway threshold in direction d: a joint at rest moves only when d F_N exceeds
- * max(F_S, F_K(d)). With F_S >= F_K (the physical case) that is F_S, as in MODEL.md. With
+ * max(F_S, F_K(d)). With F_S >= F_K (the physical case) that is F_S, as in the paper's model. With
  * F_S < F_K a joint that broke away at F_S would decelerate at once (F_N - F_K < 0) and
  * stop again: it cannot move, and taking F_K as the threshold says so instead of chattering
  * at zero speed. Stribeck keeps this: at v -> 0 the sliding friction tends to F_S.
