@@ -48,7 +48,7 @@ its <code>friction.h</code>), with speed <i>v</i>, active force <i>F_A</i> and i
   sliding (mode = +1 or -1):  F_F = k_fw v + F_K mode
   stuck   (mode = 0):         F_F = F_A,  v = 0,  dv/dt = 0
 </pre>
-<p>Optional extras (pendfmu's README, section Friction law extras), all off at their default 0: with
+<p>Optional extras (pendfmu's docs, user-guide/friction.md, section Friction law extras), all off at their default 0: with
 F_N = F_A + F_O (a constant offset force) and the direction d = mode,</p>
 <pre>
   m dv/dt = F_N - F_F

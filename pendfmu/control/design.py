@@ -28,7 +28,7 @@ from scipy.linalg import solve_discrete_are
 
 from pendfmu.control.plant import RigModel, discretize
 
-ENCODER_COUNTS = 1024  # MODEL.md: both encoders, when no sidecar tells the resolution
+ENCODER_COUNTS = 1024  # the paper's encoders, both (docs/user-guide/model.md), when no sidecar tells the resolution
 
 
 @dataclass(frozen=True)
@@ -58,7 +58,14 @@ class Weights:
     a: float = 1.0
 
     def text(self) -> str:
-        """As `pendfmu control --weights` takes them: "x=0.02 phi=0.01 ..."."""
+        """The weights as `pendfmu control --weights` takes them, for notes that say how to
+        design with them again.
+
+        Returns
+        -------
+        str
+            "x=0.02 phi=0.01 v=0.5 w=1 a=1", three significant digits each.
+        """
         return " ".join(f"{name}={getattr(self, name):.3g}" for name in ("x", "phi", "v", "w", "a"))
 
 
@@ -81,7 +88,7 @@ class Options:
     compensation : bool
         Whether the identified cart friction is compensated.
     dx, dphi : float or None
-        The encoders' resolutions [m, rad] the estimator is designed for (None: MODEL.md's
+        The encoders' resolutions [m, rad] the estimator is designed for (None: the paper's
         1024-count encoders).
     sigma_F, sigma_T : float
         The estimator's process noise: the force [N] and torque [N m] the model misses.
@@ -205,7 +212,7 @@ def design(parameters: Mapping[str, float], options: Options = Options()) -> Des
     Parameters
     ----------
     parameters : Mapping[str, float]
-        Every rig parameter by its MODEL.md name (a fit result's values, as
+        Every rig parameter by its name in the model page (a fit result's values, as
         fromfit.rig_values gives them).
     options : Options
         The task, limits, weights and encoders.

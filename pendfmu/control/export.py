@@ -13,7 +13,7 @@ from pathlib import Path
 from pendfmu.components import RIG_CONTROLLER, RIG_LQR_STATES, RIG_READINGS, RIG_STATES, Component
 from pendfmu.control.design import Design
 
-# RigModel's field -> the FMU parameter of that meaning (the same name where MODEL.md has one)
+# RigModel's field -> the FMU parameter of that meaning (the same name where the model page has one)
 _RIG_NAMES = {"M": "M", "m": "m_p", "l": "l", "J": "J_p", "g": "g", "eta": "eta", "A": "A_back", "k_F": "k_F",
               "k_fwc": "k_fwc", "F_Kc": "F_Kc", "F_Sc": "F_Sc", "k_fwp": "k_fwp", "T_i": "T_i",
               "dIdt_max": "dIdt_max"}

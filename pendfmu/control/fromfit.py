@@ -2,9 +2,9 @@
 
 The result is read by the project's reader (fitting.result.read_result); its "parameters"
 hold every value the fit ran with, fitted and known. A value the result lacks (a stage fit
-of the current loop alone has no cart) is MODEL.md's reference value, and the design says so.
+of the current loop alone has no cart) is the reference rig's value (docs/user-guide/model.md), and the design says so.
 The resolutions come from the sidecars of the recordings the fit read (provenance inputs),
-where they still lie beside them; else MODEL.md's encoders.
+where they still lie beside them; else the paper's 1024-count encoders.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ DESIGN_PARAMETERS = ("m_c", "m_p", "l", "J_p", "g", "eta", "eta_back", "k_M", "k
 
 
 def rig_values(result) -> tuple[dict[str, float], list[str]]:
-    """(every rig parameter's value, the names taken from MODEL.md's reference rig) of a FitResult."""
+    """(every rig parameter's value, the names taken from the reference rig) of a FitResult."""
     table = parameter_table()
     values = rig_defaults()
     fitted = {k: v for k, v in result.parameters.items() if k in table}

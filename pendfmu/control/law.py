@@ -23,7 +23,7 @@ TRACK_USE = 0.9  # of the track's half-length x_max: where the swing-up's brakin
 
 
 def sgn(value: float) -> float:
-    """MODEL.md's sign: sgn(0) = 1 (a pendulum hanging at rest gets its first push)."""
+    """The model's sign (docs/user-guide/model.md): sgn(0) = 1 (a pendulum hanging at rest gets its first push)."""
     return 1.0 if value >= 0.0 else -1.0
 
 

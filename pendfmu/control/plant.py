@@ -1,4 +1,5 @@
-"""The rig as the controller sees it: MODEL.md's equations about a known state, in one place.
+"""The rig as the controller sees it: the paper's equations about a known state, in one place
+(docs/user-guide/model.md).
 
 Two uses need the same physics: the state estimator predicts one sample ahead with the
 nonlinear equations (the swing-up runs far from upright, where a linearization about it
@@ -33,7 +34,7 @@ SUBSTEPS = 10
 
 @dataclass(frozen=True)
 class RigModel:
-    """The identified rig's constants that the controller needs (MODEL.md names).
+    """The identified rig's constants that the controller needs (the model page's names).
 
     Attributes: M = m_c + m_p the moving mass [kg]; m, l, J the pendulum's mass, centre
     of mass distance and inertia about the pivot; g; eta and A the screw's drive and
@@ -71,7 +72,7 @@ class RigModel:
 
     def accelerations(self, v: float, phi: float, w: float, force: float) -> tuple[float, float]:
         """(a, alpha) of cart and pendulum under the drive force `force` after the screw
-        (eta k_F I less what the controller cancels as friction): MODEL.md's cart and
+        (eta k_F I less what the controller cancels as friction): the model's cart and
         pendulum, solved together (the 2x2 system of a back-drivable screw; A = 0 decouples it)."""
         s, c = math.sin(phi), math.cos(phi)
         b1 = force - self.k_fwc * v + self.A * self.m * self.l * w * w * s
@@ -89,7 +90,7 @@ class RigModel:
         return self.M * a + self.k_fwc * v - self.A * self.m * self.l * (w * w * s - alpha * c)
 
     def current_rate(self, I: float, I_c: float) -> float:
-        """MODEL.md's current loop: a first-order lag whose slope is limited."""
+        """The model's current loop: a first-order lag whose slope is limited."""
         z = (I_c - I) / (self.T_i * self.dIdt_max)
         return self.dIdt_max * max(-1.0, min(1.0, z))
 
