@@ -78,3 +78,46 @@ def test_fmus_are_not_rebuilt_when_up_to_date(built_fmus):
     before = {name: Path(path).stat().st_mtime_ns for name, path in built_fmus.items()}
     build_all()
     assert {name: Path(path).stat().st_mtime_ns for name, path in built_fmus.items()} == before
+
+
+def test_descriptions_are_parsed_one_thread_at_a_time(built_fmus, tmp_path, monkeypatch):
+    """fmpy validates a description against the FMI schema, and libxml2 sets up its schema
+    types on a process's first schema parse: two threads at it at once broke every later
+    parse of that process, about once in 60 (build_all's stale checks run one thread per
+    component; a pytest worker then rebuilt FMUs and failed a dozen tests). So
+    compiler.model_description lets one thread parse at a time: here eight threads, each
+    with an FMU file of its own (not yet parsed), never overlap inside fmpy's reader."""
+    import shutil
+    import threading
+    import time
+
+    from pendfmu.fmubuild import compiler
+
+    inside, most, lock = [0], [0], threading.Lock()
+    real = fmpy.read_model_description
+
+    def watched(path, *args, **kwargs):
+        with lock:
+            inside[0] += 1
+            most[0] = max(most[0], inside[0])
+        time.sleep(0.01)  # long enough for the others to arrive
+        try:
+            return real(path, *args, **kwargs)
+        finally:
+            with lock:
+                inside[0] -= 1
+
+    monkeypatch.setattr(compiler.fmpy, "read_model_description", watched)
+    copies = [shutil.copy(built_fmus[NAMES[0]], tmp_path / f"copy{k}.fmu") for k in range(8)]
+    barrier = threading.Barrier(len(copies))
+
+    def parse(path):
+        barrier.wait()
+        compiler.model_description(path)
+
+    threads = [threading.Thread(target=parse, args=(path,)) for path in copies]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert most[0] == 1

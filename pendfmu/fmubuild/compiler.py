@@ -26,6 +26,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import uuid
 import zipfile
 from collections.abc import Callable, Sequence
@@ -214,18 +215,26 @@ def fmu_path(component: Component, fmi_version: int = 2, folder: Path | None = N
 
 
 _DESCRIPTIONS: dict[tuple, object] = {}
+# One description parsed at a time in a process. fmpy validates each against the FMI XML
+# schema, and libxml2 sets up its schema types on the first schema parse of a process: two
+# threads doing that at once (build_all's stale checks, one per component) left, about once
+# in 60 processes, every later schema parse of the process failing with "xmlSchemaPValAttrNodeValue,
+# the given type is not a built-in type" (measured with 16 threads, one FMU each). built_guid
+# took that for a missing FMU, so a pytest worker rebuilt FMUs and failed a dozen tests.
+_PARSING = threading.Lock()
 
 
 def model_description(path: Path):
     """fmpy's parsed modelDescription.xml of an FMU file, kept while the file is unchanged
     (same inode, size and modification time). Parsing takes 1.5 ms, and checking, building
     and loading one system asks for each FMU's description four or five times (16 ms of a
-    0.1 s `pendfmu simulate`)."""
+    0.1 s `pendfmu simulate`). One thread parses at a time (_PARSING)."""
     path = Path(path)
     stat = path.stat()
     key = (str(path.resolve()), stat.st_ino, stat.st_size, stat.st_mtime_ns)
-    if key not in _DESCRIPTIONS:
-        _DESCRIPTIONS[key] = fmpy.read_model_description(str(path))
+    with _PARSING:
+        if key not in _DESCRIPTIONS:
+            _DESCRIPTIONS[key] = fmpy.read_model_description(str(path))
     return _DESCRIPTIONS[key]
 
 
