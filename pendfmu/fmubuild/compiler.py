@@ -219,7 +219,7 @@ _DESCRIPTIONS: dict[tuple, object] = {}
 # schema, and libxml2 sets up its schema types on the first schema parse of a process: two
 # threads doing that at once (build_all's stale checks, one per component) left, about once
 # in 60 processes, every later schema parse of the process failing with "xmlSchemaPValAttrNodeValue,
-# the given type is not a built-in type" (measured with 16 threads, one FMU each). built_guid
+# the given type is not a built-in type" (measured with 10 threads, one FMU each). built_guid
 # took that for a missing FMU, so a pytest worker rebuilt FMUs and failed a dozen tests.
 _PARSING = threading.Lock()
 
